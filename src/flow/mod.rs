@@ -1,0 +1,5 @@
+//! Normal optic flow from events.
+
+mod vector;
+
+pub use vector::FlowVector;

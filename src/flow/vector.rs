@@ -1,0 +1,36 @@
+//! The flow vector: what every stage after the camera works on.
+
+/// A normal optic flow vector: image motion across a local edge, in pixels per second.
+///
+/// Only the component normal to the edge is observable (the aperture problem), so
+/// (`u_px_s`, `v_px_s`) points across the edge. Its origin is the event that produced it.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct FlowVector {
+    pub t_us: i64,
+    pub x_px: f64,
+    pub y_px: f64,
+    pub u_px_s: f64,
+    pub v_px_s: f64,
+}
+
+impl FlowVector {
+    pub fn new(t_us: i64, x_px: f64, y_px: f64, u_px_s: f64, v_px_s: f64) -> Self {
+        Self {
+            t_us,
+            x_px,
+            y_px,
+            u_px_s,
+            v_px_s,
+        }
+    }
+
+    pub fn speed_px_s(&self) -> f64 {
+        self.u_px_s.hypot(self.v_px_s)
+    }
+
+    /// Unit direction of the flow, or `None` for a zero vector.
+    pub fn direction(&self) -> Option<(f64, f64)> {
+        let s = self.speed_px_s();
+        (s > 0.0 && s.is_finite()).then(|| (self.u_px_s / s, self.v_px_s / s))
+    }
+}

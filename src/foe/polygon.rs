@@ -1,0 +1,1 @@
+//! Convex polygons clipped by half-planes (being written).

@@ -1,0 +1,17 @@
+//! faithd: event-camera obstacle avoidance for small drones.
+//!
+//! The modules below the adapters form the pure core: events and attitude samples
+//! stamped in microseconds go in, decisions come out. Nothing in the core reads a
+//! clock, touches a file or a socket, or draws an unseeded random number, so any
+//! recorded flight replays to the same decisions bit for bit.
+//!
+//! Data flow (DESIGN.md): [`flow`] (normal flow from events) -> [`derotate`] ->
+//! [`foe`] (FAITH and the baselines) -> [`ttc`] -> [`cluster`] (DBSCAN) -> [`decide`];
+//! [`pipeline`] runs them in order for one window.
+
+pub mod attitude;
+pub mod camera;
+pub mod event;
+pub mod flow;
+pub mod foe;
+pub mod synth;

@@ -1,0 +1,11 @@
+//! Analytic inputs with known answers: flow fields and event streams generated from
+//! closed-form motion, for tests, benchmarks and examples.
+//!
+//! These are not the camera simulator (that renders textured scenes); they are the
+//! smallest inputs whose correct FOE, flow and TTC are known exactly.
+
+pub mod flow_field;
+pub mod looming_edges;
+
+pub use flow_field::{FlowFieldSpec, radial_normal_flow};
+pub use looming_edges::{LoomingEdges, looming_edge_events};
