@@ -20,7 +20,11 @@ pub struct AttitudeSample {
 
 impl AttitudeSample {
     pub fn body_rates_rad_s(&self) -> Vector3<f64> {
-        Vector3::new(self.roll_rate_rad_s, self.pitch_rate_rad_s, self.yaw_rate_rad_s)
+        Vector3::new(
+            self.roll_rate_rad_s,
+            self.pitch_rate_rad_s,
+            self.yaw_rate_rad_s,
+        )
     }
 }
 

@@ -40,7 +40,10 @@ impl CameraIntrinsics {
 
     /// Image point (pixels) to normalised image plane coordinates (x/z, y/z).
     pub fn normalise(&self, x_px: f64, y_px: f64) -> (f64, f64) {
-        ((x_px - self.cx_px) / self.fx_px, (y_px - self.cy_px) / self.fy_px)
+        (
+            (x_px - self.cx_px) / self.fx_px,
+            (y_px - self.cy_px) / self.fy_px,
+        )
     }
 
     /// Normalised image plane coordinates back to pixels.

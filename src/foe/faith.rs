@@ -1,24 +1,416 @@
-//! FAITH (placeholder, being written).
-use super::{FoeEstimate, FoeEstimator};
+//! FAITH: fast iterative half-plane FOE estimation (the paper's Algorithm 1).
+//!
+//! Each iteration intersects the negative half-planes of two random flow vectors, keeps
+//! adding random half-planes while they shrink that area, and scores the area's centre
+//! by how many half-planes contain it. The best-scoring centre wins.
+//!
+//! Where faithd departs from the authors' code, and why:
+//! - The centre is the polygon's area centroid, not its bounding-box centre: a thin
+//!   sliver's box centre can lie outside the sliver (and outside the half-planes that
+//!   made it).
+//! - The search does not clamp to the image. Candidates come from a search box a little
+//!   larger than the sensor; the winner is then refined over a box that reaches almost
+//!   to 90 degrees off-axis. An FOE outside the view is reported as `Unbounded` with its
+//!   side when the flow does not close the area, instead of being pinned to the border.
+//! - Refinement: the final area is the intersection of *all* half-planes that agree with
+//!   the best candidate (its inliers), whose centroid is a consensus estimate rather
+//!   than the centre of the few half-planes one random draw happened to pick.
+//! - A half-plane that would empty the area (an outlier disagreeing with it) is skipped
+//!   rather than accepted as "smaller".
+
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use serde::{Deserialize, Serialize};
+
+use super::polygon::{ConvexPolygon, HalfPlane};
+use super::{FoeEstimate, FoeEstimator, Side};
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct FaithConfig {}
-
-pub struct Faith {
-    _camera: CameraIntrinsics,
+/// Tunables of FAITH. Defaults follow the paper where it is explicit.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaithConfig {
+    /// RANSAC iterations. The paper's eq. 4 with p = 0.95, w = 0.75, n = 10 gives 52.
+    pub iterations: u32,
+    /// Upper bound on half-planes added in one iteration's shrinking loop, so a cycle's
+    /// cost is bounded whatever the data.
+    pub max_cuts_per_iteration: u32,
+    /// Fewer usable vectors than this and no FOE is reported.
+    pub min_vectors: usize,
+    /// How far beyond the sensor border (pixels) candidate areas may reach.
+    pub search_margin_px: f64,
+    /// Radius (pixels, around the sensor) beyond which an area counts as unbounded.
+    /// 20000 px at f = 195 px is 89.4 degrees off-axis.
+    pub unbounded_margin_px: f64,
+    /// A point within this distance (pixels) outside a half-plane still counts as in it.
+    pub inlier_tolerance_px: f64,
+    /// Refine the winner over all of its inlier half-planes (see the module docs).
+    pub refine: bool,
+    /// Report the bounding-box centre like the authors' code (for the benchmark only).
+    pub bbox_centre: bool,
 }
-impl Faith {
-    pub fn new(camera: CameraIntrinsics, _config: FaithConfig) -> Self {
-        Self { _camera: camera }
+
+impl Default for FaithConfig {
+    fn default() -> Self {
+        Self {
+            iterations: 52,
+            max_cuts_per_iteration: 64,
+            min_vectors: 10,
+            search_margin_px: 60.0,
+            unbounded_margin_px: 20_000.0,
+            inlier_tolerance_px: 0.0,
+            refine: true,
+            bbox_centre: false,
+        }
     }
 }
+
+impl FaithConfig {
+    /// The algorithm as the paper and the authors' code run it: 100 iterations, areas
+    /// clamped to the image, bounding-box centre, no refinement. Kept for comparison.
+    pub fn paper() -> Self {
+        Self {
+            iterations: 100,
+            search_margin_px: 0.0,
+            refine: false,
+            bbox_centre: true,
+            ..Self::default()
+        }
+    }
+}
+
+/// The FAITH estimator with its reusable buffers.
+pub struct Faith {
+    camera: CameraIntrinsics,
+    config: FaithConfig,
+    /// Half-planes of the current window as structure of arrays, for a vectorised score.
+    nx: Vec<f64>,
+    ny: Vec<f64>,
+    c: Vec<f64>,
+    area: ConvexPolygon,
+    cut: ConvexPolygon,
+    best: ConvexPolygon,
+}
+
+impl Faith {
+    pub fn new(camera: CameraIntrinsics, config: FaithConfig) -> Self {
+        Self {
+            camera,
+            config,
+            nx: Vec::new(),
+            ny: Vec::new(),
+            c: Vec::new(),
+            area: ConvexPolygon::with_capacity(64),
+            cut: ConvexPolygon::with_capacity(64),
+            best: ConvexPolygon::with_capacity(64),
+        }
+    }
+
+    pub fn config(&self) -> &FaithConfig {
+        &self.config
+    }
+
+    /// Sets the iteration count; the daemon lowers it to shed load under a tight budget.
+    pub fn set_iterations(&mut self, iterations: u32) {
+        self.config.iterations = iterations;
+    }
+
+    fn load_half_planes(&mut self, flow: &[FlowVector]) {
+        self.nx.clear();
+        self.ny.clear();
+        self.c.clear();
+        for f in flow {
+            if let Some(h) = HalfPlane::behind(f.x_px, f.y_px, f.u_px_s, f.v_px_s) {
+                self.nx.push(h.nx);
+                self.ny.push(h.ny);
+                self.c.push(h.c);
+            }
+        }
+    }
+
+    fn half_plane(&self, i: usize) -> HalfPlane {
+        HalfPlane {
+            nx: self.nx[i],
+            ny: self.ny[i],
+            c: self.c[i],
+        }
+    }
+
+    /// Number of half-planes containing the point: the iteration score.
+    fn score(&self, x: f64, y: f64) -> usize {
+        let c_tol = self.config.inlier_tolerance_px;
+        self.nx
+            .iter()
+            .zip(&self.ny)
+            .zip(&self.c)
+            .filter(|((nx, ny), c)| *nx * x + *ny * y <= *c + c_tol)
+            .count()
+    }
+
+    fn set_box(&mut self, margin_px: f64) {
+        let w = f64::from(self.camera.width_px) - 1.0;
+        let h = f64::from(self.camera.height_px) - 1.0;
+        self.area
+            .set_rectangle(-margin_px, -margin_px, w + margin_px, h + margin_px);
+    }
+
+    /// Cuts `self.area` by half-plane `i`; returns false (area unchanged) when the cut
+    /// would empty it.
+    fn cut_area(&mut self, i: usize) -> bool {
+        let h = self.half_plane(i);
+        self.area.clip_into(&h, &mut self.cut);
+        if self.cut.is_empty() {
+            return false;
+        }
+        std::mem::swap(&mut self.area, &mut self.cut);
+        true
+    }
+
+    fn centre(&self, poly: &ConvexPolygon) -> Option<(f64, f64)> {
+        if self.config.bbox_centre {
+            poly.bbox_centre()
+        } else {
+            poly.centroid()
+        }
+    }
+
+    /// One RANSAC iteration: the paper's inner loop. Leaves the area in `self.area`.
+    fn grow_candidate(&mut self, rng: &mut Pcg64Mcg) -> Option<(f64, f64)> {
+        let n = self.nx.len();
+        let i = rng.random_range(0..n);
+        let mut j = rng.random_range(0..n - 1);
+        if j >= i {
+            j += 1;
+        }
+        self.set_box(self.config.search_margin_px);
+        if !self.cut_area(i) || !self.cut_area(j) {
+            return None;
+        }
+        let mut area_px2 = self.area.area();
+        for _ in 0..self.config.max_cuts_per_iteration {
+            let k = rng.random_range(0..n);
+            let h = self.half_plane(k);
+            self.area.clip_into(&h, &mut self.cut);
+            let new_area_px2 = self.cut.area();
+            if self.cut.is_empty() || new_area_px2 >= area_px2 * (1.0 - 1e-12) {
+                break;
+            }
+            std::mem::swap(&mut self.area, &mut self.cut);
+            area_px2 = new_area_px2;
+        }
+        self.centre(&self.area)
+    }
+
+    /// Intersects every half-plane that contains `(x, y)` (the winner's inliers).
+    fn refine_over_inliers(&mut self, x: f64, y: f64) {
+        let c_tol = self.config.inlier_tolerance_px;
+        self.set_box(self.config.unbounded_margin_px);
+        for i in 0..self.nx.len() {
+            if self.nx[i] * x + self.ny[i] * y <= self.c[i] + c_tol {
+                let h = HalfPlane {
+                    c: self.c[i] + c_tol,
+                    ..self.half_plane(i)
+                };
+                if !self.area.inside(&h) {
+                    self.area.clip_into(&h, &mut self.cut);
+                    if !self.cut.is_empty() {
+                        std::mem::swap(&mut self.area, &mut self.cut);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Does the area reach the far box, i.e. is the true intersection unbounded?
+    fn reaches_far_box(&self, poly: &ConvexPolygon) -> bool {
+        let m = self.config.unbounded_margin_px;
+        let w = f64::from(self.camera.width_px) - 1.0;
+        let h = f64::from(self.camera.height_px) - 1.0;
+        let edge_tol = 1e-6 * m.max(1.0);
+        poly.vertices().iter().any(|&(x, y)| {
+            x <= -m + edge_tol
+                || y <= -m + edge_tol
+                || x >= w + m - edge_tol
+                || y >= h + m - edge_tol
+        })
+    }
+}
+
 impl FoeEstimator for Faith {
     fn name(&self) -> &'static str {
         "faith"
     }
-    fn estimate(&mut self, flow: &[FlowVector], _seed: u64) -> FoeEstimate {
-        FoeEstimate::Insufficient { vectors: flow.len() }
+
+    fn estimate(&mut self, flow: &[FlowVector], seed: u64) -> FoeEstimate {
+        self.load_half_planes(flow);
+        let n = self.nx.len();
+        if n < self.config.min_vectors.max(2) {
+            return FoeEstimate::Insufficient { vectors: n };
+        }
+        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut best: Option<(usize, (f64, f64))> = None;
+        for _ in 0..self.config.iterations.max(1) {
+            let Some((x, y)) = self.grow_candidate(&mut rng) else {
+                continue;
+            };
+            let score = self.score(x, y);
+            if best.is_none_or(|(s, _)| score > s) {
+                best = Some((score, (x, y)));
+                std::mem::swap(&mut self.best, &mut self.area);
+            }
+        }
+        let Some((mut support, (mut x, mut y))) = best else {
+            return FoeEstimate::Insufficient { vectors: n };
+        };
+        if self.config.refine {
+            self.refine_over_inliers(x, y);
+            if let Some((rx, ry)) = self.centre(&self.area) {
+                let refined_support = self.score(rx, ry);
+                if refined_support >= support {
+                    (x, y, support) = (rx, ry, refined_support);
+                    std::mem::swap(&mut self.best, &mut self.area);
+                }
+            }
+            if self.reaches_far_box(&self.best) {
+                let (dx, dy) = (x - self.camera.cx_px, y - self.camera.cy_px);
+                let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
+                return FoeEstimate::Unbounded {
+                    side: Side::of_direction(dx, dy),
+                    dx: dx / len,
+                    dy: dy / len,
+                    support,
+                };
+            }
+        }
+        FoeEstimate::Point {
+            x_px: x,
+            y_px: y,
+            support,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{FlowFieldSpec, radial_normal_flow};
+
+    fn run(config: FaithConfig, spec: &FlowFieldSpec, seed: u64) -> FoeEstimate {
+        let cam = CameraIntrinsics::dvs240();
+        let flow = radial_normal_flow(&cam, spec, seed);
+        Faith::new(cam, config).estimate(&flow, seed ^ 0xfa17)
+    }
+
+    /// Mean pixel error over several random fields.
+    fn mean_error_px(config: FaithConfig, spec: FlowFieldSpec, trials: u64) -> f64 {
+        let mut sum = 0.0;
+        for seed in 0..trials {
+            let est = run(config, &spec, seed);
+            let (x, y) = est.point().unwrap_or_else(|| panic!("no point: {est:?}"));
+            sum += (x - spec.foe_px.0).hypot(y - spec.foe_px.1);
+        }
+        sum / trials as f64
+    }
+
+    #[test]
+    fn finds_foe_of_clean_noisy_and_dirty_fields() {
+        // Bounds are about 2x the measured means (2.2, 2.2 and 9.1 px at the centre),
+        // so a regression shows and seeds do not make the test flaky.
+        for foe in [(120.0, 90.0), (30.0, 150.0), (2.0, 90.0)] {
+            let clean = FlowFieldSpec::clean(foe, 1000);
+            let noisy = FlowFieldSpec {
+                angle_noise_deg: 5.0,
+                speed_noise_rel: 0.2,
+                ..clean
+            };
+            let dirty = FlowFieldSpec {
+                outlier_fraction: 0.2,
+                ..noisy
+            };
+            let c = mean_error_px(FaithConfig::default(), clean, 10);
+            let n = mean_error_px(FaithConfig::default(), noisy, 10);
+            let d = mean_error_px(FaithConfig::default(), dirty, 10);
+            assert!(c < 6.0 && n < 6.0 && d < 18.0, "{foe:?}: {c} {n} {d}");
+        }
+    }
+
+    #[test]
+    fn refinement_beats_the_papers_variant_near_the_border() {
+        let spec = FlowFieldSpec::clean((2.0, 90.0), 1000);
+        let ours = mean_error_px(FaithConfig::default(), spec, 10);
+        let paper = mean_error_px(FaithConfig::paper(), spec, 10);
+        assert!(ours * 2.0 < paper, "ours {ours} paper {paper}");
+    }
+
+    #[test]
+    fn foe_outside_the_view_is_unbounded_with_its_side() {
+        let cam = CameraIntrinsics::dvs240();
+        for (foe, side) in [
+            ((-400.0, 90.0), Side::Left),
+            ((700.0, 60.0), Side::Right),
+            ((120.0, -500.0), Side::Above),
+        ] {
+            let mut spec = FlowFieldSpec::clean(foe, 800);
+            spec.angle_noise_deg = 2.0;
+            let flow = radial_normal_flow(&cam, &spec, 3);
+            match Faith::new(cam, FaithConfig::default()).estimate(&flow, 9) {
+                FoeEstimate::Unbounded {
+                    side: s, dx, dy, ..
+                } => {
+                    assert_eq!(s, side, "{foe:?}");
+                    let (tx, ty) = (foe.0 - cam.cx_px, foe.1 - cam.cy_px);
+                    let cos = (dx * tx + dy * ty) / tx.hypot(ty);
+                    assert!(cos > 0.9, "direction off: {dx} {dy} for {foe:?}");
+                }
+                other => panic!("{foe:?}: expected unbounded, got {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn foe_just_outside_the_view_but_bounded_is_a_point() {
+        // A few pixels past the border the flow still closes the area.
+        let spec = FlowFieldSpec::clean((-6.0, 90.0), 1000);
+        let est = run(FaithConfig::default(), &spec, 4);
+        let (x, y) = est.point().expect("a point");
+        assert!((x + 6.0).hypot(y - 90.0) < 8.0, "{x} {y}");
+    }
+
+    #[test]
+    fn too_few_or_degenerate_vectors_are_insufficient() {
+        let cam = CameraIntrinsics::dvs240();
+        let mut faith = Faith::new(cam, FaithConfig::default());
+        assert_eq!(
+            faith.estimate(&[], 1),
+            FoeEstimate::Insufficient { vectors: 0 }
+        );
+        let zeros = vec![FlowVector::new(0, 10.0, 10.0, 0.0, 0.0); 100];
+        assert_eq!(
+            faith.estimate(&zeros, 1),
+            FoeEstimate::Insufficient { vectors: 0 }
+        );
+        let nans = vec![FlowVector::new(0, f64::NAN, 10.0, 1.0, 0.0); 100];
+        assert_eq!(
+            faith.estimate(&nans, 1),
+            FoeEstimate::Insufficient { vectors: 0 }
+        );
+    }
+
+    #[test]
+    fn same_seed_same_estimate_and_buffers_do_not_leak_between_calls() {
+        let cam = CameraIntrinsics::dvs240();
+        let mut spec = FlowFieldSpec::clean((80.0, 70.0), 600);
+        spec.outlier_fraction = 0.3;
+        let flow = radial_normal_flow(&cam, &spec, 11);
+        let other = radial_normal_flow(&cam, &FlowFieldSpec::clean((10.0, 10.0), 300), 12);
+        let mut a = Faith::new(cam, FaithConfig::default());
+        let first = a.estimate(&flow, 5);
+        a.estimate(&other, 6);
+        assert_eq!(a.estimate(&flow, 5), first);
+        assert_eq!(
+            Faith::new(cam, FaithConfig::default()).estimate(&flow, 5),
+            first
+        );
     }
 }

@@ -82,9 +82,7 @@ impl FoeEstimate {
 
     pub fn support(&self) -> usize {
         match *self {
-            FoeEstimate::Point { support, .. } | FoeEstimate::Unbounded { support, .. } => {
-                support
-            }
+            FoeEstimate::Point { support, .. } | FoeEstimate::Unbounded { support, .. } => support,
             FoeEstimate::Insufficient { .. } => 0,
         }
     }

@@ -16,6 +16,8 @@ impl FoeEstimator for Nesw {
         "nesw"
     }
     fn estimate(&mut self, flow: &[FlowVector], _seed: u64) -> FoeEstimate {
-        FoeEstimate::Insufficient { vectors: flow.len() }
+        FoeEstimate::Insufficient {
+            vectors: flow.len(),
+        }
     }
 }

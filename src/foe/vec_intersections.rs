@@ -19,6 +19,8 @@ impl FoeEstimator for VecIntersections {
         "vec_intersections"
     }
     fn estimate(&mut self, flow: &[FlowVector], _seed: u64) -> FoeEstimate {
-        FoeEstimate::Insufficient { vectors: flow.len() }
+        FoeEstimate::Insufficient {
+            vectors: flow.len(),
+        }
     }
 }

@@ -48,8 +48,8 @@ pub fn radial_normal_flow(
     seed: u64,
 ) -> Vec<FlowVector> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-    let angle_noise = Normal::new(0.0, spec.angle_noise_deg.to_radians().max(0.0))
-        .expect("finite angle noise");
+    let angle_noise =
+        Normal::new(0.0, spec.angle_noise_deg.to_radians().max(0.0)).expect("finite angle noise");
     let speed_noise = Normal::new(1.0, spec.speed_noise_rel.max(0.0)).expect("finite speed noise");
     let w = f64::from(camera.width_px);
     let h = f64::from(camera.height_px);
@@ -62,7 +62,13 @@ pub fn radial_normal_flow(
         if rng.random_bool(spec.outlier_fraction.clamp(0.0, 1.0)) {
             let dir = rng.random_range(0.0..std::f64::consts::TAU);
             let speed = rng.random_range(5.0..200.0);
-            out.push(FlowVector::new(t_us, x, y, speed * dir.cos(), speed * dir.sin()));
+            out.push(FlowVector::new(
+                t_us,
+                x,
+                y,
+                speed * dir.cos(),
+                speed * dir.sin(),
+            ));
             continue;
         }
         let (tx, ty) = (
