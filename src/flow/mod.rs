@@ -1,5 +1,17 @@
-//! Normal optic flow from events.
+//! Normal optic flow from events (Benosman 2014, made online by Hordijk 2018).
+//!
+//! Every event updates a surface of active events (the latest timestamp per pixel and
+//! polarity). A plane `t = a*x + b*y + c` fitted to the recent timestamps around the
+//! event gives the local time gradient; an edge moving at speed `s` across the pixel
+//! grid leaves a gradient of `1/s` along its normal, so the normal flow is
+//! `(a, b) / (a^2 + b^2)`.
 
+mod normal_flow;
+mod plane_fit;
+mod surface;
 mod vector;
 
+pub use normal_flow::{FlowConfig, FlowStats, NormalFlow};
+pub use plane_fit::{PlaneFit, fit_plane};
+pub use surface::ActiveEventSurface;
 pub use vector::FlowVector;

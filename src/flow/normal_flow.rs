@@ -1,0 +1,281 @@
+//! The per-event flow estimator: surface update, neighbourhood, plane fit, checks.
+
+use serde::{Deserialize, Serialize};
+
+use super::plane_fit::fit_plane;
+use super::surface::{ActiveEventSurface, NEVER_US};
+use super::vector::FlowVector;
+use crate::camera::CameraIntrinsics;
+use crate::event::Event;
+
+/// Largest neighbourhood radius: 11x11 pixels, the stack buffer's size.
+pub const MAX_RADIUS_PX: u16 = 5;
+const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
+
+/// Tunables of the normal flow stage.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FlowConfig {
+    /// Neighbourhood half-size: 2 gives the 5x5 patch of Benosman 2014. At most 5.
+    pub radius_px: u16,
+    /// Only neighbours that fired within this time before the event are fitted. Slow
+    /// edges (10 px/s) need 5 px * 100 ms to cross a 5x5 patch.
+    pub window_us: i64,
+    /// A pixel firing again within this time of its previous same-polarity event is
+    /// ignored: one edge makes bursts of events per pixel, and only the first is on
+    /// the moving front.
+    pub refractory_us: i64,
+    /// Points needed for a fit, the event itself included.
+    pub min_points: usize,
+    /// Points whose residual exceeds this are dropped and the plane refitted once.
+    pub outlier_residual_us: f64,
+    /// Fits with a larger RMS residual after that are rejected.
+    pub max_rms_us: f64,
+    /// Flow slower than this is rejected (nearly flat fits are noise).
+    pub min_speed_px_s: f64,
+    /// Flow faster than this is rejected (steep fits from simultaneous events).
+    pub max_speed_px_s: f64,
+}
+
+impl Default for FlowConfig {
+    fn default() -> Self {
+        Self {
+            radius_px: 2,
+            window_us: 300_000,
+            refractory_us: 1_000,
+            min_points: 8,
+            outlier_residual_us: 20_000.0,
+            max_rms_us: 10_000.0,
+            min_speed_px_s: 2.0,
+            max_speed_px_s: 5_000.0,
+        }
+    }
+}
+
+/// Counters of what happened to the events of a window, for logs and health checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct FlowStats {
+    pub events: u64,
+    pub out_of_view: u64,
+    pub refractory: u64,
+    pub too_few_points: u64,
+    pub bad_fit: u64,
+    pub speed_rejected: u64,
+    pub vectors: u64,
+}
+
+/// Streaming normal flow: feed events in time order, collect vectors.
+pub struct NormalFlow {
+    config: FlowConfig,
+    surface: ActiveEventSurface,
+    stats: FlowStats,
+}
+
+impl NormalFlow {
+    pub fn new(camera: &CameraIntrinsics, config: FlowConfig) -> Self {
+        Self {
+            config,
+            surface: ActiveEventSurface::new(camera.width_px, camera.height_px),
+            stats: FlowStats::default(),
+        }
+    }
+
+    pub fn config(&self) -> &FlowConfig {
+        &self.config
+    }
+
+    /// Counters since the last `take_stats`.
+    pub fn take_stats(&mut self) -> FlowStats {
+        std::mem::take(&mut self.stats)
+    }
+
+    /// Forgets the surface, e.g. after the camera reconnected.
+    pub fn reset(&mut self) {
+        self.surface.clear();
+        self.stats = FlowStats::default();
+    }
+
+    /// Processes events in order, appending one vector per event that yields a good fit.
+    pub fn process(&mut self, events: &[Event], out: &mut Vec<FlowVector>) {
+        for e in events {
+            if let Some(v) = self.process_event(e) {
+                out.push(v);
+            }
+        }
+    }
+
+    /// One event: update the surface, then try a plane fit around it.
+    pub fn process_event(&mut self, e: &Event) -> Option<FlowVector> {
+        self.stats.events += 1;
+        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
+        if x >= self.surface.width_px() || y >= self.surface.height_px() {
+            self.stats.out_of_view += 1;
+            return None;
+        }
+        let previous_us = self.surface.get(x, y, e.polarity);
+        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
+        {
+            self.stats.refractory += 1;
+            return None;
+        }
+        self.surface.set(x, y, e.polarity, e.t_us);
+
+        let mut points = [(0.0, 0.0, 0.0); MAX_POINTS];
+        let n = self.gather(e, &mut points);
+        if n < self.config.min_points {
+            self.stats.too_few_points += 1;
+            return None;
+        }
+        let Some(mut fit) = fit_plane(&points[..n]) else {
+            self.stats.bad_fit += 1;
+            return None;
+        };
+        // One round of outlier rejection: stale or early pixels off the plane.
+        let mut kept = 0;
+        for i in 0..n {
+            let (px, py, pt) = points[i];
+            let r = pt - (fit.a_us_per_px * px + fit.b_us_per_px * py + fit.c_us);
+            if r.abs() <= self.config.outlier_residual_us {
+                points[kept] = points[i];
+                kept += 1;
+            }
+        }
+        if kept < n {
+            if kept < self.config.min_points {
+                self.stats.too_few_points += 1;
+                return None;
+            }
+            let Some(refit) = fit_plane(&points[..kept]) else {
+                self.stats.bad_fit += 1;
+                return None;
+            };
+            fit = refit;
+        }
+        if fit.rms_us > self.config.max_rms_us {
+            self.stats.bad_fit += 1;
+            return None;
+        }
+        let Some((u, v)) = fit.normal_flow_px_s() else {
+            self.stats.bad_fit += 1;
+            return None;
+        };
+        let speed = u.hypot(v);
+        if !(speed >= self.config.min_speed_px_s && speed <= self.config.max_speed_px_s) {
+            self.stats.speed_rejected += 1;
+            return None;
+        }
+        self.stats.vectors += 1;
+        Some(FlowVector::new(e.t_us, x as f64, y as f64, u, v))
+    }
+
+    /// Recent same-polarity neighbours as (dx, dy, dt) relative to the event.
+    fn gather(&self, e: &Event, points: &mut [(f64, f64, f64); MAX_POINTS]) -> usize {
+        let r = usize::from(self.config.radius_px.min(MAX_RADIUS_PX));
+        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
+        let (x0, x1) = (x.saturating_sub(r), (x + r).min(self.surface.width_px() - 1));
+        let (y0, y1) = (y.saturating_sub(r), (y + r).min(self.surface.height_px() - 1));
+        let mut n = 0;
+        for ny in y0..=y1 {
+            for nx in x0..=x1 {
+                let t = self.surface.get(nx, ny, e.polarity);
+                if t == NEVER_US {
+                    continue;
+                }
+                let age_us = e.t_us.saturating_sub(t);
+                if (0..=self.config.window_us).contains(&age_us) {
+                    points[n] = (
+                        nx as f64 - x as f64,
+                        ny as f64 - y as f64,
+                        (t - e.t_us) as f64,
+                    );
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::event::Polarity;
+
+    /// A straight edge sweeping across the sensor at constant velocity.
+    fn sweep(speed_px_s: f64, angle_deg: f64) -> Vec<Event> {
+        let (nx, ny) = (angle_deg.to_radians().cos(), angle_deg.to_radians().sin());
+        let mut events = Vec::new();
+        for y in 0..180u16 {
+            for x in 0..240u16 {
+                // Distance of the pixel along the edge normal, from a line through (0, 0).
+                let d = f64::from(x) * nx + f64::from(y) * ny + 300.0;
+                let t_us = (d / speed_px_s * 1e6) as i64;
+                events.push(Event::new(t_us, x, y, Polarity::On));
+            }
+        }
+        events.sort_by_key(|e| e.t_us);
+        events
+    }
+
+    #[test]
+    fn straight_edge_gives_its_velocity() {
+        let cam = CameraIntrinsics::dvs240();
+        for (speed, angle) in [(50.0, 0.0), (200.0, 30.0), (20.0, 135.0), (400.0, -100.0)] {
+            let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+            let mut out = Vec::new();
+            flow.process(&sweep(speed, angle), &mut out);
+            assert!(out.len() > 20_000, "only {} vectors", out.len());
+            let (mut su, mut sv) = (0.0, 0.0);
+            for f in &out {
+                su += f.u_px_s;
+                sv += f.v_px_s;
+            }
+            let (mu, mv) = (su / out.len() as f64, sv / out.len() as f64);
+            let (eu, ev) = (speed * angle.to_radians().cos(), speed * angle.to_radians().sin());
+            let err = (mu - eu).hypot(mv - ev) / speed;
+            assert!(err < 0.05, "speed {speed} angle {angle}: mean ({mu}, {mv}) vs ({eu}, {ev})");
+        }
+    }
+
+    #[test]
+    fn refractory_and_out_of_view_events_are_counted_not_used() {
+        let cam = CameraIntrinsics::dvs240();
+        let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+        let mut out = Vec::new();
+        let events = [
+            Event::new(0, 10, 10, Polarity::On),
+            Event::new(100, 10, 10, Polarity::On),
+            Event::new(200, 10, 10, Polarity::Off),
+            Event::new(300, 240, 10, Polarity::On),
+            Event::new(300, 10, 180, Polarity::On),
+        ];
+        flow.process(&events, &mut out);
+        let stats = flow.take_stats();
+        assert_eq!(stats.events, 5);
+        assert_eq!(stats.refractory, 1);
+        assert_eq!(stats.out_of_view, 2);
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn random_noise_yields_few_vectors() {
+        use rand::{RngExt, SeedableRng};
+        let cam = CameraIntrinsics::dvs240();
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let events: Vec<_> = (0..50_000)
+            .map(|i| {
+                Event::new(
+                    i * 20,
+                    rng.random_range(0..240),
+                    rng.random_range(0..180),
+                    Polarity::from_bool(rng.random_bool(0.5)),
+                )
+            })
+            .collect();
+        let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+        let mut out = Vec::new();
+        flow.process(&events, &mut out);
+        // 50k uniform events over 1 s: a pixel's neighbourhood rarely holds 8 recent ones.
+        assert!(out.len() < 2_500, "{} vectors from noise", out.len());
+    }
+}

@@ -1,0 +1,52 @@
+//! The surface of active events: latest timestamp per pixel and polarity.
+
+use crate::event::Polarity;
+
+/// Marks a pixel that has never fired.
+pub const NEVER_US: i64 = i64::MIN;
+
+/// Latest event time per pixel and polarity, as one flat preallocated table.
+pub struct ActiveEventSurface {
+    width_px: usize,
+    height_px: usize,
+    t_us: Vec<i64>,
+}
+
+impl ActiveEventSurface {
+    pub fn new(width_px: u16, height_px: u16) -> Self {
+        let (w, h) = (usize::from(width_px), usize::from(height_px));
+        Self {
+            width_px: w,
+            height_px: h,
+            t_us: vec![NEVER_US; 2 * w * h],
+        }
+    }
+
+    pub fn width_px(&self) -> usize {
+        self.width_px
+    }
+
+    pub fn height_px(&self) -> usize {
+        self.height_px
+    }
+
+    fn index(&self, x_px: usize, y_px: usize, polarity: Polarity) -> usize {
+        (polarity.index() * self.height_px + y_px) * self.width_px + x_px
+    }
+
+    /// Latest time at a pixel; `x_px`, `y_px` must be on the sensor.
+    pub fn get(&self, x_px: usize, y_px: usize, polarity: Polarity) -> i64 {
+        self.t_us[self.index(x_px, y_px, polarity)]
+    }
+
+    /// Stores a new time and returns the previous one.
+    pub fn set(&mut self, x_px: usize, y_px: usize, polarity: Polarity, t_us: i64) -> i64 {
+        let i = self.index(x_px, y_px, polarity);
+        std::mem::replace(&mut self.t_us[i], t_us)
+    }
+
+    /// Forgets every event (a new flight, or a camera that reconnected).
+    pub fn clear(&mut self) {
+        self.t_us.fill(NEVER_US);
+    }
+}
