@@ -8,4 +8,4 @@ pub mod flow_field;
 pub mod looming_edges;
 
 pub use flow_field::{FlowFieldSpec, radial_normal_flow};
-pub use looming_edges::{LoomingEdges, looming_edge_events};
+pub use looming_edges::{Layer, LoomingEdges, looming_edge_events};
