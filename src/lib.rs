@@ -10,8 +10,17 @@
 //! [`pipeline`] runs them in order for one window.
 
 pub mod attitude;
+pub mod bench;
 pub mod camera;
+pub mod cluster;
+pub mod config;
+pub mod decide;
+pub mod demo;
+pub mod derotate;
 pub mod event;
 pub mod flow;
 pub mod foe;
+pub mod pipeline;
+pub mod sim;
 pub mod synth;
+pub mod ttc;

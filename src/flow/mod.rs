@@ -11,7 +11,7 @@ mod plane_fit;
 mod surface;
 mod vector;
 
-pub use normal_flow::{FlowConfig, FlowStats, NormalFlow};
+pub use normal_flow::{FlowConfig, FlowStats, MAX_RADIUS_PX, NormalFlow};
 pub use plane_fit::{PlaneFit, fit_plane};
 pub use surface::ActiveEventSurface;
 pub use vector::FlowVector;

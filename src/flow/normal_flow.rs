@@ -172,8 +172,14 @@ impl NormalFlow {
     fn gather(&self, e: &Event, points: &mut [(f64, f64, f64); MAX_POINTS]) -> usize {
         let r = usize::from(self.config.radius_px.min(MAX_RADIUS_PX));
         let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        let (x0, x1) = (x.saturating_sub(r), (x + r).min(self.surface.width_px() - 1));
-        let (y0, y1) = (y.saturating_sub(r), (y + r).min(self.surface.height_px() - 1));
+        let (x0, x1) = (
+            x.saturating_sub(r),
+            (x + r).min(self.surface.width_px() - 1),
+        );
+        let (y0, y1) = (
+            y.saturating_sub(r),
+            (y + r).min(self.surface.height_px() - 1),
+        );
         let mut n = 0;
         for ny in y0..=y1 {
             for nx in x0..=x1 {
@@ -231,9 +237,15 @@ mod tests {
                 sv += f.v_px_s;
             }
             let (mu, mv) = (su / out.len() as f64, sv / out.len() as f64);
-            let (eu, ev) = (speed * angle.to_radians().cos(), speed * angle.to_radians().sin());
+            let (eu, ev) = (
+                speed * angle.to_radians().cos(),
+                speed * angle.to_radians().sin(),
+            );
             let err = (mu - eu).hypot(mv - ev) / speed;
-            assert!(err < 0.05, "speed {speed} angle {angle}: mean ({mu}, {mv}) vs ({eu}, {ev})");
+            assert!(
+                err < 0.05,
+                "speed {speed} angle {angle}: mean ({mu}, {mv}) vs ({eu}, {ev})"
+            );
         }
     }
 

@@ -20,10 +20,7 @@ impl PlaneFit {
         if !(g2 > 0.0 && g2.is_finite()) {
             return None;
         }
-        Some((
-            1e6 * self.a_us_per_px / g2,
-            1e6 * self.b_us_per_px / g2,
-        ))
+        Some((1e6 * self.a_us_per_px / g2, 1e6 * self.b_us_per_px / g2))
     }
 }
 
@@ -102,7 +99,9 @@ mod tests {
     fn edge_moving_right_at_100_px_s() {
         // 10 ms per pixel along x, constant along y.
         let pts: Vec<_> = (-2..=2)
-            .flat_map(|y| (-2..=0).map(move |x| (f64::from(x), f64::from(y), 10_000.0 * f64::from(x))))
+            .flat_map(|y| {
+                (-2..=0).map(move |x| (f64::from(x), f64::from(y), 10_000.0 * f64::from(x)))
+            })
             .collect();
         let (u, v) = fit_plane(&pts).unwrap().normal_flow_px_s().unwrap();
         assert!((u - 100.0).abs() < 1e-6 && v.abs() < 1e-6, "{u} {v}");

@@ -17,7 +17,9 @@ impl HalfPlane {
     /// orthogonal to it, that the vector points away from. `None` for a zero or
     /// non-finite vector, which says nothing about the FOE.
     pub fn behind(x_px: f64, y_px: f64, u: f64, v: f64) -> Option<Self> {
-        let len = u.hypot(v);
+        // sqrt rather than hypot: flow speeds never approach overflow, and hypot is a
+        // slow library call on the hot path (one per vector per window).
+        let len = (u * u + v * v).sqrt();
         if !(len > 0.0 && len.is_finite() && x_px.is_finite() && y_px.is_finite()) {
             return None;
         }

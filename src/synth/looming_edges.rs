@@ -111,9 +111,7 @@ pub fn looming_edge_events(
             return false;
         }
         let tau = layers[layer_idx].0.tau0_s;
-        !layers
-            .iter()
-            .any(|(l, _)| l.tau0_s < tau && covers(l))
+        !layers.iter().any(|(l, _)| l.tau0_s < tau && covers(l))
     };
 
     let jitter = Normal::new(0.0, scene.jitter_us.max(0.0)).expect("finite jitter");
@@ -137,7 +135,8 @@ pub fn looming_edge_events(
             }
         }
     }
-    let noise_events = (scene.noise_rate_hz * scene.duration_s * camera.pixel_count() as f64) as usize;
+    let noise_events =
+        (scene.noise_rate_hz * scene.duration_s * camera.pixel_count() as f64) as usize;
     for _ in 0..noise_events {
         events.push(Event::new(
             rng.random_range(0..duration_us as i64),

@@ -1,0 +1,3 @@
+//! The `bench` commands: experiments on the built-in simulator that anyone can rerun.
+
+pub mod foe;

@@ -1,0 +1,179 @@
+//! Derotation: remove the image motion caused by the vehicle's own rotation.
+//!
+//! Only translation carries the FOE. The rotational part of the flow at normalised
+//! image point (x, y) for camera angular rate (wx, wy, wz) is (paper, eq. 3):
+//! `u_R = x*y*wx - (1 + x^2)*wy + y*wz`, `v_R = (1 + y^2)*wx - x*y*wy - x*wz`.
+//! A normal flow vector only measures the flow's component along its own direction,
+//! so we subtract the rotational flow's component along that direction; subtracting
+//! the whole rotational vector would add motion along the edge that was never seen.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::attitude::{AttitudeSample, body_rates_at};
+use crate::camera::{CameraIntrinsics, Mounting};
+use crate::flow::FlowVector;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DerotationConfig {
+    /// Turn derotation off only for a camera on a gimbal that cancels rotation.
+    pub enabled: bool,
+    /// Vectors whose derotated speed falls below this are dropped: what is left is
+    /// sensor noise, and its direction says nothing about the FOE.
+    pub min_speed_px_s: f64,
+    /// Camera tilt above the body x axis, degrees (positive = looking up).
+    pub camera_pitch_up_deg: f64,
+}
+
+impl Default for DerotationConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            min_speed_px_s: 2.0,
+            camera_pitch_up_deg: 0.0,
+        }
+    }
+}
+
+/// What derotation did to a window's vectors.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct DerotationStats {
+    pub vectors_in: usize,
+    pub dropped_slow: usize,
+    /// False when there was no attitude to derotate with (the flow is then unusable
+    /// for decisions, and the decision says so).
+    pub applied: bool,
+}
+
+/// Rotational flow at a pixel for angular rates in camera axes, pixels per second.
+pub fn rotational_flow_px_s(
+    camera: &CameraIntrinsics,
+    x_px: f64,
+    y_px: f64,
+    rates_cam_rad_s: &Vector3<f64>,
+) -> (f64, f64) {
+    let (x, y) = camera.normalise(x_px, y_px);
+    let (wx, wy, wz) = (rates_cam_rad_s.x, rates_cam_rad_s.y, rates_cam_rad_s.z);
+    let u = x * y * wx - (1.0 + x * x) * wy + y * wz;
+    let v = (1.0 + y * y) * wx - x * y * wy - x * wz;
+    (u * camera.fx_px, v * camera.fy_px)
+}
+
+/// Derotates flow vectors with body rates interpolated at each vector's time.
+pub struct Derotator {
+    camera: CameraIntrinsics,
+    mounting: Mounting,
+    config: DerotationConfig,
+}
+
+impl Derotator {
+    pub fn new(camera: CameraIntrinsics, config: DerotationConfig) -> Self {
+        Self {
+            camera,
+            mounting: Mounting::forward_pitched_up(config.camera_pitch_up_deg),
+            config,
+        }
+    }
+
+    /// The translational normal flow of one vector, or `None` when nothing is left.
+    pub fn derotate(&self, f: &FlowVector, body_rates_rad_s: Vector3<f64>) -> Option<FlowVector> {
+        let (nx, ny) = f.direction()?;
+        let rates_cam = self.mounting.rates_in_camera(body_rates_rad_s);
+        let (ur, vr) = rotational_flow_px_s(&self.camera, f.x_px, f.y_px, &rates_cam);
+        let speed = f.speed_px_s() - (ur * nx + vr * ny);
+        if !speed.is_finite() || speed.abs() < self.config.min_speed_px_s {
+            return None;
+        }
+        Some(FlowVector {
+            u_px_s: speed * nx,
+            v_px_s: speed * ny,
+            ..*f
+        })
+    }
+
+    /// Derotates `flow` in place, keeping the vectors that survive, in order.
+    pub fn derotate_all(
+        &self,
+        flow: &mut Vec<FlowVector>,
+        attitude: &[AttitudeSample],
+    ) -> DerotationStats {
+        let vectors_in = flow.len();
+        if !self.config.enabled {
+            return DerotationStats {
+                vectors_in,
+                dropped_slow: 0,
+                applied: true,
+            };
+        }
+        if attitude.is_empty() {
+            return DerotationStats {
+                vectors_in,
+                dropped_slow: 0,
+                applied: false,
+            };
+        }
+        flow.retain_mut(|f| {
+            let rates = body_rates_at(attitude, f.t_us).unwrap_or_else(Vector3::zeros);
+            match self.derotate(f, rates) {
+                Some(d) => {
+                    *f = d;
+                    true
+                }
+                None => false,
+            }
+        });
+        DerotationStats {
+            vectors_in,
+            dropped_slow: vectors_in - flow.len(),
+            applied: true,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::synth::{FlowFieldSpec, radial_normal_flow};
+
+    #[test]
+    fn yaw_right_moves_the_scene_left() {
+        let cam = CameraIntrinsics::dvs240();
+        let w = Mounting::forward().rates_in_camera(Vector3::new(0.0, 0.0, 0.5));
+        let (u, v) = rotational_flow_px_s(&cam, cam.cx_px, cam.cy_px, &w);
+        assert!((u + 0.5 * cam.fx_px).abs() < 1e-9 && v.abs() < 1e-9);
+    }
+
+    #[test]
+    fn derotation_restores_the_translational_normal_flow() {
+        let cam = CameraIntrinsics::dvs240();
+        let der = Derotator::new(cam, DerotationConfig::default());
+        let body_rates = Vector3::new(0.3, -0.2, 0.6);
+        let rates_cam = Mounting::forward().rates_in_camera(body_rates);
+        let spec = FlowFieldSpec::clean((100.0, 80.0), 300);
+        let truth = radial_normal_flow(&cam, &spec, 4);
+        let mut restored = 0;
+        for t in &truth {
+            // The camera sees translation + rotation, projected on the same edge normal.
+            let (nx, ny) = t.direction().unwrap();
+            let (ur, vr) = rotational_flow_px_s(&cam, t.x_px, t.y_px, &rates_cam);
+            let seen = t.speed_px_s() + ur * nx + vr * ny;
+            let observed = FlowVector::new(t.t_us, t.x_px, t.y_px, seen * nx, seen * ny);
+            if let Some(d) = der.derotate(&observed, body_rates) {
+                assert!((d.u_px_s - t.u_px_s).abs() < 1e-6 && (d.v_px_s - t.v_px_s).abs() < 1e-6);
+                restored += 1;
+            }
+        }
+        assert!(restored > 250, "{restored}");
+    }
+
+    #[test]
+    fn no_attitude_means_not_applied() {
+        let cam = CameraIntrinsics::dvs240();
+        let der = Derotator::new(cam, DerotationConfig::default());
+        let mut flow = vec![FlowVector::new(0, 1.0, 1.0, 5.0, 0.0)];
+        let stats = der.derotate_all(&mut flow, &[]);
+        assert!(!stats.applied);
+        assert_eq!(flow.len(), 1);
+    }
+}

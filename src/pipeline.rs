@@ -1,0 +1,339 @@
+//! One window through every stage: events and attitude in, decision out.
+//!
+//! The pipeline owns every buffer it needs, so a steady stream of windows allocates
+//! nothing once warmed up. It never reads a clock: stage timings come from the
+//! caller's [`StageClock`], which is a real monotonic clock in the daemon and a
+//! counter (or nothing) in replays and tests.
+
+use serde::{Deserialize, Serialize};
+
+use crate::attitude::AttitudeSample;
+use crate::camera::CameraIntrinsics;
+use crate::cluster::{ClusterStats, Dbscan, DbscanConfig, cluster_features, cluster_stats};
+use crate::decide::{Decision, DecisionConfig, decide};
+use crate::derotate::{DerotationConfig, DerotationStats, Derotator};
+use crate::event::Event;
+use crate::flow::{FlowConfig, FlowStats, FlowVector, NormalFlow};
+use crate::foe::{
+    Faith, FaithConfig, FoeEstimate, FoeEstimator, FoeMethod, HalfPlaneMap, HalfPlaneMapConfig,
+    Nesw, VecIntersections, VecIntersectionsConfig,
+};
+use crate::ttc::{TtcConfig, ttc_s};
+
+/// Every tunable of the core, as it appears under `[pipeline]` in faithd.toml.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PipelineConfig {
+    /// Seed of every random choice (FAITH's RANSAC); each window derives its own from
+    /// it and the window time, so any window replays on its own.
+    pub seed: u64,
+    /// Flow older than this is forgotten, microseconds. Decisions run far more often
+    /// than one window's events can support a fit, so they look at this much history.
+    pub history_us: i64,
+    /// At most this many (newest) vectors go to FOE and clustering: bounds the cost.
+    pub max_vectors: usize,
+    pub foe_method: FoeMethod,
+    pub camera: CameraIntrinsics,
+    pub flow: FlowConfig,
+    pub derotation: DerotationConfig,
+    pub faith: FaithConfig,
+    pub half_planes: HalfPlaneMapConfig,
+    pub vec_intersections: VecIntersectionsConfig,
+    pub ttc: TtcConfig,
+    pub cluster: DbscanConfig,
+    pub decision: DecisionConfig,
+}
+
+impl Default for PipelineConfig {
+    fn default() -> Self {
+        Self {
+            seed: 0x5eed_fa17,
+            history_us: 50_000,
+            max_vectors: 3_000,
+            foe_method: FoeMethod::Faith,
+            camera: CameraIntrinsics::default(),
+            flow: FlowConfig::default(),
+            derotation: DerotationConfig::default(),
+            faith: FaithConfig::default(),
+            half_planes: HalfPlaneMapConfig::default(),
+            vec_intersections: VecIntersectionsConfig::default(),
+            ttc: TtcConfig::default(),
+            cluster: DbscanConfig::default(),
+            decision: DecisionConfig::default(),
+        }
+    }
+}
+
+/// The caller's monotonic clock, read between stages to time them.
+pub trait StageClock {
+    fn now_ns(&mut self) -> u64;
+}
+
+/// A clock that never moves: for replays that do not need timings.
+pub struct NoClock;
+
+impl StageClock for NoClock {
+    fn now_ns(&mut self) -> u64 {
+        0
+    }
+}
+
+/// Time spent in each stage of one window, nanoseconds of the caller's clock.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct StageTimings {
+    pub flow_ns: u64,
+    pub derotate_ns: u64,
+    pub foe_ns: u64,
+    pub ttc_ns: u64,
+    pub cluster_ns: u64,
+    pub decide_ns: u64,
+}
+
+impl StageTimings {
+    pub fn total_ns(&self) -> u64 {
+        self.flow_ns
+            + self.derotate_ns
+            + self.foe_ns
+            + self.ttc_ns
+            + self.cluster_ns
+            + self.decide_ns
+    }
+}
+
+/// Everything one window produced, borrowed from the pipeline's buffers.
+#[derive(Debug)]
+pub struct WindowReport<'a> {
+    pub t_us: i64,
+    pub flow_stats: FlowStats,
+    pub derotation: DerotationStats,
+    /// The derotated flow the FOE and clusters were computed on.
+    pub vectors: &'a [FlowVector],
+    pub foe: FoeEstimate,
+    /// TTC per vector, seconds; NaN where the vector contradicts the FOE.
+    pub ttc_s: &'a [f64],
+    /// Cluster per vector; `None` for noise or vectors without a TTC.
+    pub labels: &'a [Option<u32>],
+    pub clusters: &'a [ClusterStats],
+    pub decision: Decision,
+    pub timings: StageTimings,
+}
+
+enum Estimator {
+    Faith(Faith),
+    HalfPlanes(HalfPlaneMap),
+    Nesw(Nesw),
+    VecIntersections(VecIntersections),
+}
+
+impl Estimator {
+    fn as_dyn(&mut self) -> &mut dyn FoeEstimator {
+        match self {
+            Estimator::Faith(e) => e,
+            Estimator::HalfPlanes(e) => e,
+            Estimator::Nesw(e) => e,
+            Estimator::VecIntersections(e) => e,
+        }
+    }
+}
+
+/// The whole core, stateful across windows only through the event surface and the
+/// flow history.
+pub struct Pipeline {
+    config: PipelineConfig,
+    flow: NormalFlow,
+    derotator: Derotator,
+    estimator: Estimator,
+    dbscan: Dbscan,
+    fresh: Vec<FlowVector>,
+    history: Vec<FlowVector>,
+    ttc: Vec<f64>,
+    clustered: Vec<usize>,
+    xy_px: Vec<(f64, f64)>,
+    ttc_clustered: Vec<f64>,
+    features: Vec<[f64; 3]>,
+    cluster_labels: Vec<Option<u32>>,
+    labels: Vec<Option<u32>>,
+    clusters: Vec<ClusterStats>,
+}
+
+impl Pipeline {
+    pub fn new(config: PipelineConfig) -> Self {
+        let cam = config.camera;
+        let estimator = match config.foe_method {
+            FoeMethod::Faith => Estimator::Faith(Faith::new(cam, config.faith)),
+            FoeMethod::HalfPlanes => {
+                Estimator::HalfPlanes(HalfPlaneMap::new(cam, config.half_planes))
+            }
+            FoeMethod::Nesw => Estimator::Nesw(Nesw::new(cam)),
+            FoeMethod::VecIntersections => {
+                Estimator::VecIntersections(VecIntersections::new(cam, config.vec_intersections))
+            }
+        };
+        Self {
+            flow: NormalFlow::new(&cam, config.flow),
+            derotator: Derotator::new(cam, config.derotation),
+            estimator,
+            dbscan: Dbscan::new(config.cluster),
+            fresh: Vec::with_capacity(config.max_vectors),
+            history: Vec::with_capacity(2 * config.max_vectors),
+            ttc: Vec::with_capacity(2 * config.max_vectors),
+            clustered: Vec::with_capacity(config.max_vectors),
+            xy_px: Vec::with_capacity(config.max_vectors),
+            ttc_clustered: Vec::with_capacity(config.max_vectors),
+            features: Vec::with_capacity(config.max_vectors),
+            cluster_labels: Vec::with_capacity(config.max_vectors),
+            labels: Vec::with_capacity(2 * config.max_vectors),
+            clusters: Vec::new(),
+            config,
+        }
+    }
+
+    pub fn config(&self) -> &PipelineConfig {
+        &self.config
+    }
+
+    /// Lowers FAITH's iteration count (load shedding); other methods ignore it.
+    pub fn set_foe_iterations(&mut self, iterations: u32) {
+        if let Estimator::Faith(f) = &mut self.estimator {
+            f.set_iterations(iterations);
+        }
+    }
+
+    /// Bounds the vectors used per decision (load shedding).
+    pub fn set_max_vectors(&mut self, max_vectors: usize) {
+        self.config.max_vectors = max_vectors.max(1);
+    }
+
+    /// Forgets all state, e.g. after the camera reconnected.
+    pub fn reset(&mut self) {
+        self.flow.reset();
+        self.history.clear();
+    }
+
+    /// Runs one window: `events` (time-ordered, all newer than the previous window's)
+    /// and the attitude samples covering them, decided at `window_end_us`.
+    pub fn process_window(
+        &mut self,
+        events: &[Event],
+        attitude: &[AttitudeSample],
+        window_end_us: i64,
+        clock: &mut dyn StageClock,
+    ) -> WindowReport<'_> {
+        let mut timings = StageTimings::default();
+        let mut t0 = clock.now_ns();
+        let mut lap = |clock: &mut dyn StageClock| {
+            let t = clock.now_ns();
+            let dt = t.saturating_sub(t0);
+            t0 = t;
+            dt
+        };
+
+        self.fresh.clear();
+        self.flow.process(events, &mut self.fresh);
+        let flow_stats = self.flow.take_stats();
+        timings.flow_ns = lap(clock);
+
+        let derotation = self.derotator.derotate_all(&mut self.fresh, attitude);
+        if derotation.applied {
+            self.history.extend_from_slice(&self.fresh);
+        } else {
+            // Rotating flow would poison the FOE for the whole history span.
+            self.history.clear();
+        }
+        self.trim_history(window_end_us);
+        timings.derotate_ns = lap(clock);
+
+        let seed = window_seed(self.config.seed, window_end_us);
+        let foe = self.estimator.as_dyn().estimate(&self.history, seed);
+        timings.foe_ns = lap(clock);
+
+        self.compute_ttc(&foe);
+        timings.ttc_ns = lap(clock);
+
+        self.cluster();
+        timings.cluster_ns = lap(clock);
+
+        let decision = decide(
+            window_end_us,
+            &self.config.decision,
+            derotation.applied,
+            self.history.len(),
+            &foe,
+            &self.clusters,
+        );
+        timings.decide_ns = lap(clock);
+
+        WindowReport {
+            t_us: window_end_us,
+            flow_stats,
+            derotation,
+            vectors: &self.history,
+            foe,
+            ttc_s: &self.ttc,
+            labels: &self.labels,
+            clusters: &self.clusters,
+            decision,
+            timings,
+        }
+    }
+
+    fn trim_history(&mut self, window_end_us: i64) {
+        let oldest_us = window_end_us.saturating_sub(self.config.history_us);
+        let stale = self.history.partition_point(|v| v.t_us < oldest_us);
+        let over = (self.history.len() - stale).saturating_sub(self.config.max_vectors);
+        self.history.drain(..stale + over);
+    }
+
+    fn compute_ttc(&mut self, foe: &FoeEstimate) {
+        self.ttc.clear();
+        match foe.point() {
+            Some(foe_px) => self.ttc.extend(
+                self.history
+                    .iter()
+                    .map(|v| ttc_s(v, foe_px, &self.config.ttc).unwrap_or(f64::NAN)),
+            ),
+            None => self.ttc.resize(self.history.len(), f64::NAN),
+        }
+    }
+
+    fn cluster(&mut self) {
+        self.clustered.clear();
+        self.xy_px.clear();
+        self.ttc_clustered.clear();
+        for (i, (v, &t)) in self.history.iter().zip(&self.ttc).enumerate() {
+            if t.is_finite() {
+                self.clustered.push(i);
+                self.xy_px.push((v.x_px, v.y_px));
+                self.ttc_clustered.push(t);
+            }
+        }
+        let cam = &self.config.camera;
+        cluster_features(
+            &self.xy_px,
+            &self.ttc_clustered,
+            cam.width_px,
+            cam.height_px,
+            &mut self.features,
+        );
+        self.dbscan.run(&self.features, &mut self.cluster_labels);
+        cluster_stats(
+            &self.xy_px,
+            &self.ttc_clustered,
+            &self.cluster_labels,
+            &mut self.clusters,
+        );
+        self.labels.clear();
+        self.labels.resize(self.history.len(), None);
+        for (k, &i) in self.clustered.iter().enumerate() {
+            self.labels[i] = self.cluster_labels[k];
+        }
+    }
+}
+
+/// Per-window seed: SplitMix64 of the configured seed and the window time.
+pub fn window_seed(seed: u64, window_end_us: i64) -> u64 {
+    let mut z = seed ^ (window_end_us as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
