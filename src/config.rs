@@ -234,9 +234,14 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         || format!("must be 1 us to 10 s, got {}", de.roll_duration_us),
     )?;
     check(
-        de.box_margin_px >= 0.0 && de.box_margin_px.is_finite(),
-        "pipeline.decision.box_margin_px",
-        || format!("must be a non-negative number, got {}", de.box_margin_px),
+        de.box_margin_x_px >= 0.0 && de.box_margin_x_px.is_finite(),
+        "pipeline.decision.box_margin_x_px",
+        || format!("must be a non-negative number, got {}", de.box_margin_x_px),
+    )?;
+    check(
+        de.box_margin_y_px >= 0.0 && de.box_margin_y_px.is_finite(),
+        "pipeline.decision.box_margin_y_px",
+        || format!("must be a non-negative number, got {}", de.box_margin_y_px),
     )?;
     check(
         (0.0..=1.0).contains(&de.min_foe_support),

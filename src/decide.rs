@@ -1,10 +1,17 @@
 //! The avoidance decision of the paper's section IV, with its evidence.
 //!
-//! The cluster with the lowest mean TTC is the obstacle. If the FOE (where the vehicle
-//! is heading) lies inside the obstacle's bounding box and its mean TTC is below the
-//! threshold, roll for a fixed time toward the side of the cluster with the highest
-//! mean TTC (the most open space). Every outcome, including "do nothing", carries the
-//! reason and the numbers behind it so the log can explain it.
+//! The paper takes the cluster with the lowest mean TTC as the obstacle and rolls when
+//! the FOE (where the vehicle is heading) lies inside its bounding box and its mean
+//! TTC is below a threshold, toward the side of the cluster with the highest mean TTC
+//! (the most open space).
+//!
+//! faithd checks every cluster below the threshold, most urgent first, and avoids the
+//! first one whose box holds the FOE. The paper's rule looks only at the single lowest
+//! cluster, so a close obstacle dead ahead is ignored whenever some other cluster (a
+//! fragment of the same pole, a wall passing by) has a slightly lower TTC; DBSCAN
+//! splits a tall, sparsely textured pole into several clusters often enough that this
+//! matters. Every outcome, including "do nothing", carries the reason and the numbers
+//! behind it so the log can explain it.
 
 use serde::{Deserialize, Serialize};
 
@@ -18,9 +25,14 @@ pub struct DecisionConfig {
     pub ttc_threshold_s: f64,
     /// Length of one avoidance roll, microseconds (the paper's 1.5 s).
     pub roll_duration_us: i64,
-    /// The obstacle box is grown by this much on every side before the FOE test,
+    /// The obstacle box is grown by this much left and right before the FOE test,
     /// pixels: the vehicle is wider than a point.
-    pub box_margin_px: f64,
+    pub box_margin_x_px: f64,
+    /// The obstacle box is grown by this much above and below, pixels. Larger than
+    /// the horizontal margin on purpose: sparse flow on a tall obstacle covers only
+    /// parts of its height, and the manoeuvre is lateral, so what decides whether it
+    /// is in the way is mostly its horizontal extent.
+    pub box_margin_y_px: f64,
     /// Fewer flow vectors than this in the window and nothing is decided.
     pub min_vectors: usize,
     /// The FOE must be supported by at least this fraction of the vectors.
@@ -32,7 +44,8 @@ impl Default for DecisionConfig {
         Self {
             ttc_threshold_s: 2.0,
             roll_duration_us: 1_500_000,
-            box_margin_px: 4.0,
+            box_margin_x_px: 4.0,
+            box_margin_y_px: 45.0,
             min_vectors: 40,
             min_foe_support: 0.5,
         }
@@ -174,30 +187,39 @@ pub fn decide(
         return d;
     }
     let by_ttc = |a: &&ClusterStats, b: &&ClusterStats| a.mean_ttc_s.total_cmp(&b.mean_ttc_s);
-    let (Some(obstacle), Some(open)) = (
+    let (Some(nearest), Some(open)) = (
         clusters.iter().min_by(by_ttc),
         clusters.iter().max_by(by_ttc),
     ) else {
         d.reason = Reason::NoClusters;
         return d;
     };
-    d.obstacle = Some(*obstacle);
-    let m = config.box_margin_px;
-    let ahead = fx >= obstacle.min_x_px - m
-        && fx <= obstacle.max_x_px + m
-        && fy >= obstacle.min_y_px - m
-        && fy <= obstacle.max_y_px + m;
-    if !ahead {
+    let (mx, my) = (config.box_margin_x_px, config.box_margin_y_px);
+    let holds_foe = |c: &ClusterStats| {
+        fx >= c.min_x_px - mx
+            && fx <= c.max_x_px + mx
+            && fy >= c.min_y_px - my
+            && fy <= c.max_y_px + my
+    };
+    // The most urgent cluster in the way, if any.
+    let Some(ahead) = clusters.iter().filter(|c| holds_foe(c)).min_by(by_ttc) else {
+        d.obstacle = Some(*nearest);
         d.reason = Reason::ObstacleNotAhead;
         return d;
-    }
-    if obstacle.mean_ttc_s >= config.ttc_threshold_s {
+    };
+    let urgent = clusters
+        .iter()
+        .filter(|c| c.mean_ttc_s < config.ttc_threshold_s && holds_foe(c))
+        .min_by(by_ttc);
+    let Some(obstacle) = urgent else {
+        d.obstacle = Some(*ahead);
         d.reason = Reason::ObstacleFar {
-            ttc_s: obstacle.mean_ttc_s,
+            ttc_s: ahead.mean_ttc_s,
             threshold_s: config.ttc_threshold_s,
         };
         return d;
-    }
+    };
+    d.obstacle = Some(*obstacle);
     let direction = roll_direction(obstacle, open, fx);
     d.escape = Some(*open);
     d.action = Action::Roll {
@@ -225,5 +247,139 @@ fn roll_direction(obstacle: &ClusterStats, open: &ClusterStats, foe_x_px: f64) -
         RollDirection::Left
     } else {
         RollDirection::Right
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cluster(id: u32, ttc_s: f64, x0: f64, x1: f64) -> ClusterStats {
+        ClusterStats {
+            id,
+            count: 50,
+            mean_ttc_s: ttc_s,
+            centroid_x_px: (x0 + x1) / 2.0,
+            centroid_y_px: 90.0,
+            min_x_px: x0,
+            max_x_px: x1,
+            min_y_px: 20.0,
+            max_y_px: 160.0,
+        }
+    }
+
+    fn foe(x: f64) -> FoeEstimate {
+        FoeEstimate::Point {
+            x_px: x,
+            y_px: 90.0,
+            support: 900,
+        }
+    }
+
+    fn run(foe_est: FoeEstimate, clusters: &[ClusterStats]) -> Decision {
+        decide(
+            7,
+            &DecisionConfig::default(),
+            true,
+            1000,
+            &foe_est,
+            clusters,
+        )
+    }
+
+    #[test]
+    fn close_obstacle_ahead_rolls_toward_open_space() {
+        let clusters = [
+            cluster(0, 4.0, 0.0, 100.0),
+            cluster(1, 1.0, 110.0, 130.0),
+            cluster(2, 8.0, 150.0, 239.0),
+        ];
+        let d = run(foe(120.0), &clusters);
+        assert_eq!(
+            d.action,
+            Action::Roll {
+                direction: RollDirection::Right,
+                duration_us: 1_500_000
+            }
+        );
+        assert_eq!(d.obstacle.unwrap().id, 1);
+        assert_eq!(d.escape.unwrap().id, 2);
+        assert!(
+            d.to_string()
+                .starts_with("roll Right for 1500 ms because ObstacleAhead")
+        );
+    }
+
+    #[test]
+    fn obstacle_ahead_is_avoided_even_when_another_cluster_is_nearer() {
+        // The paper's rule would look only at cluster 0 (lowest TTC, off course).
+        let clusters = [
+            cluster(0, 0.8, 10.0, 40.0),
+            cluster(1, 1.2, 110.0, 130.0),
+            cluster(2, 6.0, 150.0, 239.0),
+        ];
+        let d = run(foe(120.0), &clusters);
+        assert!(matches!(d.action, Action::Roll { .. }));
+        assert_eq!(d.obstacle.unwrap().id, 1);
+    }
+
+    #[test]
+    fn holds_with_a_reason_otherwise() {
+        let far = [cluster(0, 3.0, 100.0, 140.0)];
+        assert!(matches!(
+            run(foe(120.0), &far).reason,
+            Reason::ObstacleFar { .. }
+        ));
+        let aside = [cluster(0, 1.0, 10.0, 40.0)];
+        assert_eq!(run(foe(120.0), &aside).reason, Reason::ObstacleNotAhead);
+        assert_eq!(run(foe(120.0), &[]).reason, Reason::NoClusters);
+        let unbounded = FoeEstimate::Unbounded {
+            side: crate::foe::Side::Left,
+            dx: -1.0,
+            dy: 0.0,
+            support: 900,
+        };
+        assert_eq!(run(unbounded, &aside).reason, Reason::FoeOutsideView);
+        let weak = FoeEstimate::Point {
+            x_px: 120.0,
+            y_px: 90.0,
+            support: 100,
+        };
+        assert!(matches!(run(weak, &aside).reason, Reason::WeakFoe { .. }));
+        let d = decide(
+            7,
+            &DecisionConfig::default(),
+            false,
+            1000,
+            &foe(120.0),
+            &aside,
+        );
+        assert_eq!((d.action, d.reason), (Action::Hold, Reason::NoAttitude));
+        let d = decide(7, &DecisionConfig::default(), true, 10, &foe(120.0), &aside);
+        assert!(matches!(
+            d.reason,
+            Reason::TooFewVectors { vectors: 10, .. }
+        ));
+    }
+
+    #[test]
+    fn lone_obstacle_is_left_by_the_shorter_way() {
+        let only = [cluster(0, 1.0, 100.0, 140.0)];
+        let left = run(foe(110.0), &only);
+        let right = run(foe(135.0), &only);
+        assert!(matches!(
+            left.action,
+            Action::Roll {
+                direction: RollDirection::Left,
+                ..
+            }
+        ));
+        assert!(matches!(
+            right.action,
+            Action::Roll {
+                direction: RollDirection::Right,
+                ..
+            }
+        ));
     }
 }

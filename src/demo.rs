@@ -28,6 +28,8 @@ pub struct DemoSummary {
     pub foe_error_px_at_roll: Option<f64>,
     pub mean_window_us: f64,
     pub max_window_us: f64,
+    /// Mean time per stage: flow, derotation, FOE, TTC, clustering, decision (us).
+    pub mean_stage_us: [f64; 6],
 }
 
 /// Runs the demo flight; `clock` times the pipeline (the CLI passes a real clock).
@@ -60,6 +62,7 @@ pub fn run(seed: u64, window_us: i64, clock: &mut dyn StageClock) -> DemoSummary
         foe_error_px_at_roll: None,
         mean_window_us: 0.0,
         max_window_us: 0.0,
+        mean_stage_us: [0.0; 6],
     };
     let mut total_ns = 0u64;
     let mut start = 0;
@@ -70,7 +73,18 @@ pub fn run(seed: u64, window_us: i64, clock: &mut dyn StageClock) -> DemoSummary
         let report = pipeline.process_window(&events[start..stop], &attitude, window_end_us, clock);
         start = stop;
         summary.windows += 1;
-        let ns = report.timings.total_ns();
+        let t = report.timings;
+        for (acc, ns) in summary.mean_stage_us.iter_mut().zip([
+            t.flow_ns,
+            t.derotate_ns,
+            t.foe_ns,
+            t.ttc_ns,
+            t.cluster_ns,
+            t.decide_ns,
+        ]) {
+            *acc += ns as f64 / 1e3;
+        }
+        let ns = t.total_ns();
         total_ns += ns;
         summary.max_window_us = summary.max_window_us.max(ns as f64 / 1e3);
         let d = report.decision;
@@ -82,6 +96,10 @@ pub fn run(seed: u64, window_us: i64, clock: &mut dyn StageClock) -> DemoSummary
         }
         window_end_us += window_us;
     }
-    summary.mean_window_us = total_ns as f64 / 1e3 / summary.windows.max(1) as f64;
+    let windows = summary.windows.max(1) as f64;
+    summary.mean_window_us = total_ns as f64 / 1e3 / windows;
+    for v in &mut summary.mean_stage_us {
+        *v /= windows;
+    }
     summary
 }

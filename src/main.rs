@@ -63,6 +63,11 @@ fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
         "  pipeline time per window: mean {:.0} us, max {:.0} us",
         summary.mean_window_us, summary.max_window_us
     );
+    let s = summary.mean_stage_us;
+    println!(
+        "  per stage (mean us): flow {:.0}, derotation {:.0}, FOE {:.0}, TTC {:.0}, clustering {:.0}, decision {:.0}",
+        s[0], s[1], s[2], s[3], s[4], s[5]
+    );
     ExitCode::SUCCESS
 }
 

@@ -38,6 +38,9 @@ pub struct BenchFoeOptions {
     pub threads: usize,
     /// Extra FAITH variants to compare (name, config), e.g. the paper's own.
     pub variants: Vec<(String, FaithConfig)>,
+    /// Add body rotation (yaw and pitch oscillations) to every third flight, so
+    /// derotation is exercised. The paper's benchmark flew without rotation.
+    pub rotation: bool,
 }
 
 impl Default for BenchFoeOptions {
@@ -50,6 +53,7 @@ impl Default for BenchFoeOptions {
             windows: 4,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
             variants: vec![("faith_paper".to_string(), FaithConfig::paper())],
+            rotation: false,
         }
     }
 }
@@ -105,8 +109,8 @@ pub struct PlannedFlight {
 }
 
 /// The flights of a run: scenes in turn, courses spread over -30..30 degrees, every
-/// other flight swaying (its FOE moves), every third one rotating.
-pub fn plan_flights(n: usize, seed: u64) -> Vec<PlannedFlight> {
+/// other flight swaying (its FOE moves), and with `rotation` every third one rotating.
+pub fn plan_flights(n: usize, seed: u64, rotation: bool) -> Vec<PlannedFlight> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x7ab1e1);
     (0..n)
         .map(|i| {
@@ -126,12 +130,15 @@ pub fn plan_flights(n: usize, seed: u64) -> Vec<PlannedFlight> {
                 t.sway_m_s = rng.random_range(0.3..0.8);
                 t.sway_hz = rng.random_range(0.8..1.5);
             }
-            let rotating = i % 3 == 2;
+            // Drawn even when unused, so a flight is the same with or without rotation.
+            let (yaw_amp, yaw_hz) = (rng.random_range(1.0..4.0), rng.random_range(0.5..1.0));
+            let (pitch_amp, pitch_hz) = (rng.random_range(0.5..2.0), rng.random_range(0.5..1.0));
+            let rotating = rotation && i % 3 == 2;
             if rotating {
-                t.yaw_amp_deg = rng.random_range(3.0..8.0);
-                t.yaw_hz = rng.random_range(0.5..1.5);
-                t.pitch_amp_deg = rng.random_range(1.0..4.0);
-                t.pitch_hz = rng.random_range(0.5..1.5);
+                t.yaw_amp_deg = yaw_amp;
+                t.yaw_hz = yaw_hz;
+                t.pitch_amp_deg = pitch_amp;
+                t.pitch_hz = pitch_hz;
             }
             PlannedFlight {
                 scene,
@@ -142,6 +149,9 @@ pub fn plan_flights(n: usize, seed: u64) -> Vec<PlannedFlight> {
         })
         .collect()
 }
+
+/// One flight's summary and its evaluated windows.
+type FlightOutcome = (TrajectoryResult, Vec<WindowSample>);
 
 struct WindowSample {
     errors_deg: Vec<f64>,
@@ -194,7 +204,7 @@ fn run_flight(
     flight: &PlannedFlight,
     options: &BenchFoeOptions,
     methods: &mut [(String, Box<dyn FoeEstimator>)],
-) -> (TrajectoryResult, Vec<WindowSample>) {
+) -> FlightOutcome {
     let camera = CameraIntrinsics::dvs240();
     let flight_seed = crate::pipeline::window_seed(options.seed, index as i64);
     let scene = flight.scene.build(flight_seed);
@@ -281,14 +291,14 @@ pub fn run(
     progress: &(dyn Fn(usize, &TrajectoryResult) + Sync),
 ) -> BenchFoeReport {
     let camera = CameraIntrinsics::dvs240();
-    let flights = plan_flights(options.trajectories, options.seed);
+    let flights = plan_flights(options.trajectories, options.seed, options.rotation);
     let names: Vec<String> = estimators(camera, options)
         .into_iter()
         .map(|(n, _)| n)
         .collect();
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<(TrajectoryResult, Vec<WindowSample>)>>> =
+    let results: Mutex<Vec<Option<FlightOutcome>>> =
         Mutex::new((0..flights.len()).map(|_| None).collect());
     std::thread::scope(|scope| {
         for _ in 0..options.threads.max(1) {

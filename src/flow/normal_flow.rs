@@ -31,6 +31,10 @@ pub struct FlowConfig {
     pub outlier_residual_us: f64,
     /// Fits with a larger RMS residual after that are rejected.
     pub max_rms_us: f64,
+    /// Fits whose gradient is this uncertain (standard error over norm) are rejected:
+    /// their speed and direction are guesses, and as outliers they cost the FOE more
+    /// than their number adds.
+    pub max_gradient_rel_error: f64,
     /// Flow slower than this is rejected (nearly flat fits are noise).
     pub min_speed_px_s: f64,
     /// Flow faster than this is rejected (steep fits from simultaneous events).
@@ -46,6 +50,7 @@ impl Default for FlowConfig {
             min_points: 8,
             outlier_residual_us: 20_000.0,
             max_rms_us: 10_000.0,
+            max_gradient_rel_error: 0.25,
             min_speed_px_s: 2.0,
             max_speed_px_s: 5_000.0,
         }
@@ -151,7 +156,9 @@ impl NormalFlow {
             };
             fit = refit;
         }
-        if fit.rms_us > self.config.max_rms_us {
+        if fit.rms_us > self.config.max_rms_us
+            || fit.gradient_rel_error > self.config.max_gradient_rel_error
+        {
             self.stats.bad_fit += 1;
             return None;
         }

@@ -11,6 +11,9 @@ pub struct PlaneFit {
     /// Root mean square residual of the points used, microseconds.
     pub rms_us: f64,
     pub points: usize,
+    /// Standard error of the gradient (a, b) over its norm: how well the points pin the
+    /// edge's speed. Near-flat or scattered patches give values near or above 1.
+    pub gradient_rel_error: f64,
 }
 
 impl PlaneFit {
@@ -66,12 +69,22 @@ pub fn fit_plane(points: &[(f64, f64, f64)]) -> Option<PlaneFit> {
         let r = t - (a * x + b * y + c);
         ss += r * r;
     }
+    // Least-squares covariance of (a, b): sigma^2 * inverse of the centred scatter.
+    let sigma2 = if n > 3 { ss / (nf - 3.0) } else { 0.0 };
+    let var_ab = sigma2 * (sxx + syy) / det;
+    let grad = (a * a + b * b).sqrt();
+    let gradient_rel_error = if grad > 0.0 {
+        var_ab.sqrt() / grad
+    } else {
+        f64::INFINITY
+    };
     Some(PlaneFit {
         a_us_per_px: a,
         b_us_per_px: b,
         c_us: c,
         rms_us: (ss / nf).sqrt(),
         points: n,
+        gradient_rel_error,
     })
 }
 
