@@ -3,7 +3,8 @@
 //! The paper takes the cluster with the lowest mean TTC as the obstacle and rolls when
 //! the FOE (where the vehicle is heading) lies inside its bounding box and its mean
 //! TTC is below a threshold, toward the side of the cluster with the highest mean TTC
-//! (the most open space).
+//! (the most open space). faithd pools the clusters of each side for that choice
+//! (see `roll_direction`).
 //!
 //! faithd checks every cluster below the threshold, most urgent first, and avoids the
 //! first one whose box holds the FOE. The paper's rule looks only at the single lowest
@@ -113,7 +114,7 @@ pub struct Decision {
     pub vectors: usize,
     pub clusters: usize,
     pub obstacle: Option<ClusterStats>,
-    /// The cluster the roll heads toward (highest mean TTC), when rolling.
+    /// The cluster with the highest mean TTC (the most open space), when rolling.
     pub escape: Option<ClusterStats>,
 }
 
@@ -220,7 +221,7 @@ pub fn decide(
         return d;
     };
     d.obstacle = Some(*obstacle);
-    let direction = roll_direction(obstacle, open, fx);
+    let direction = roll_direction(obstacle, clusters, fx);
     d.escape = Some(*open);
     d.action = Action::Roll {
         direction,
@@ -233,20 +234,39 @@ pub fn decide(
     d
 }
 
-/// Toward the most open cluster; if the obstacle is the only cluster, out of its box
-/// by the shorter way from the FOE.
-fn roll_direction(obstacle: &ClusterStats, open: &ClusterStats, foe_x_px: f64) -> RollDirection {
-    if open.id != obstacle.id && open.centroid_x_px != obstacle.centroid_x_px {
-        return if open.centroid_x_px < obstacle.centroid_x_px {
-            RollDirection::Left
+/// Toward the more open side: the side of the obstacle whose other clusters have the
+/// higher mean TTC (weighted by their vector counts). The paper heads toward the
+/// single cluster with the highest mean TTC, which a small far fragment on the wrong
+/// side can win; pooling each side's clusters is steadier. With clusters on one side
+/// only, that side; with none, out of the obstacle's box by the shorter way.
+fn roll_direction(
+    obstacle: &ClusterStats,
+    clusters: &[ClusterStats],
+    foe_x_px: f64,
+) -> RollDirection {
+    let (mut left, mut right) = ((0.0, 0usize), (0.0, 0usize));
+    for c in clusters.iter().filter(|c| c.id != obstacle.id) {
+        let side = if c.centroid_x_px < obstacle.centroid_x_px {
+            &mut left
         } else {
-            RollDirection::Right
+            &mut right
         };
+        side.0 += c.mean_ttc_s * c.count as f64;
+        side.1 += c.count;
     }
-    if foe_x_px - obstacle.min_x_px < obstacle.max_x_px - foe_x_px {
-        RollDirection::Left
-    } else {
-        RollDirection::Right
+    let mean = |(sum, n): (f64, usize)| (n > 0).then(|| sum / n as f64);
+    match (mean(left), mean(right)) {
+        (Some(l), Some(r)) if l > r => RollDirection::Left,
+        (Some(_), Some(_)) => RollDirection::Right,
+        (Some(_), None) => RollDirection::Left,
+        (None, Some(_)) => RollDirection::Right,
+        (None, None) => {
+            if foe_x_px - obstacle.min_x_px < obstacle.max_x_px - foe_x_px {
+                RollDirection::Left
+            } else {
+                RollDirection::Right
+            }
+        }
     }
 }
 

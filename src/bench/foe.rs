@@ -125,7 +125,7 @@ pub fn plan_flights(n: usize, seed: u64, rotation: bool) -> Vec<PlannedFlight> {
             ];
             let mut t =
                 Trajectory::straight(start, heading_deg, course_deg, rng.random_range(1.0..2.5));
-            let sway = i % 2 == 1;
+            let sway = (i / SceneKind::ALL.len()) % 2 == 1;
             if sway {
                 t.sway_m_s = rng.random_range(0.3..0.8);
                 t.sway_hz = rng.random_range(0.8..1.5);

@@ -71,7 +71,7 @@ impl Default for FaithConfig {
             iterations: 52,
             max_cuts_per_iteration: 64,
             min_vectors: 10,
-            search_margin_px: 60.0,
+            search_margin_px: 20.0,
             unbounded_margin_px: 20_000.0,
             inlier_tolerance_px: 0.0,
             refine: true,
@@ -98,6 +98,9 @@ impl FaithConfig {
     }
 }
 
+/// Boundaries sampled for the coarse plateau pass: enough to place the plateau.
+const COARSE_LINES: usize = 256;
+
 /// The FAITH estimator with its reusable buffers.
 pub struct Faith {
     camera: CameraIntrinsics,
@@ -114,6 +117,9 @@ pub struct Faith {
     /// Violation counts of the plateau grid, one row per grid row plus a spare column
     /// for the difference-array form.
     grid: Vec<i32>,
+    /// Boundaries crossing the plateau grid, as (crossing column, change per row).
+    rightward: Vec<(f64, f64)>,
+    leftward: Vec<(f64, f64)>,
 }
 
 impl Faith {
@@ -128,6 +134,8 @@ impl Faith {
             cut: ConvexPolygon::with_capacity(64),
             scratch: ConvexPolygon::with_capacity(64),
             grid: Vec::new(),
+            rightward: Vec::new(),
+            leftward: Vec::new(),
         }
     }
 
@@ -232,21 +240,61 @@ impl Faith {
     fn refine_over_inliers(&mut self, x: f64, y: f64) {
         let c_tol = self.config.inlier_tolerance_px;
         self.set_box(self.config.unbounded_margin_px);
+        // Cut first with the inliers whose boundary passes closest to the winner: they
+        // shrink the area at once, after which almost every other half-plane contains
+        // the whole area and is dismissed by a bounding-circle test in O(1).
+        const FIRST_CUTS: usize = 16;
+        let mut closest = [(f64::INFINITY, 0usize); FIRST_CUTS];
         for i in 0..self.nx.len() {
-            let h = self.half_plane(i);
-            if h.excess(x, y) <= c_tol {
-                let h = HalfPlane {
-                    c: h.c + c_tol,
-                    ..h
-                };
-                if !self.area.inside(&h) {
-                    self.area.clip_into(&h, &mut self.cut);
-                    if !self.cut.is_empty() {
-                        std::mem::swap(&mut self.area, &mut self.cut);
-                    }
-                }
+            let e = self.half_plane(i).excess(x, y);
+            if e <= c_tol && -e < closest[FIRST_CUTS - 1].0 {
+                closest[FIRST_CUTS - 1] = (-e, i);
+                closest.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
             }
         }
+        for &(d, i) in &closest {
+            if d.is_finite() {
+                self.cut_area_with_tolerance(i, c_tol);
+            }
+        }
+        let (mut cx, mut cy, mut radius) = self.area_circle();
+        for i in 0..self.nx.len() {
+            let h = self.half_plane(i);
+            if h.excess(x, y) > c_tol || h.excess(cx, cy) + radius <= c_tol {
+                continue;
+            }
+            if self.cut_area_with_tolerance(i, c_tol) {
+                (cx, cy, radius) = self.area_circle();
+            }
+        }
+    }
+
+    /// Cuts the area by half-plane `i` widened by `tol`; true when the area changed.
+    fn cut_area_with_tolerance(&mut self, i: usize, tol: f64) -> bool {
+        let h = self.half_plane(i);
+        let h = HalfPlane { c: h.c + tol, ..h };
+        if self.area.inside(&h) {
+            return false;
+        }
+        self.area.clip_into(&h, &mut self.cut);
+        if self.cut.is_empty() {
+            return false;
+        }
+        std::mem::swap(&mut self.area, &mut self.cut);
+        true
+    }
+
+    /// A circle around the area: vertex mean and the largest distance to it.
+    fn area_circle(&self) -> (f64, f64, f64) {
+        let v = self.area.vertices();
+        let n = v.len().max(1) as f64;
+        let (sx, sy) = v.iter().fold((0.0, 0.0), |(a, b), &(x, y)| (a + x, b + y));
+        let (cx, cy) = (sx / n, sy / n);
+        let r2 = v
+            .iter()
+            .map(|&(x, y)| (x - cx) * (x - cx) + (y - cy) * (y - cy))
+            .fold(0.0, f64::max);
+        (cx, cy, r2.sqrt() * (1.0 + 1e-9))
     }
 
     /// Centroid of the points (on a grid around `(cx, cy)`) whose violation count is
@@ -263,6 +311,7 @@ impl Faith {
         radius_px: f64,
         cell_px: f64,
         slack: i32,
+        line_stride: usize,
     ) -> Option<(f64, f64)> {
         let side = (2.0 * radius_px / cell_px).floor() as usize + 1;
         if !(2..=512).contains(&side) {
@@ -277,8 +326,12 @@ impl Faith {
         self.grid.resize(side * stride, 0);
         let reach = radius_px * std::f64::consts::SQRT_2 + cell_px;
         let tol = self.config.inlier_tolerance_px;
-        let side_f = side as f64;
-        for k in 0..self.nx.len() {
+        // Crossing column (in cells, offset by 1 so it is never negative after the
+        // clamp) at row 0 and its change per row, for boundaries violated to the right
+        // and to the left of the crossing.
+        self.rightward.clear();
+        self.leftward.clear();
+        for k in (0..self.nx.len()).step_by(line_stride.max(1)) {
             let HalfPlane { nx, ny, c } = self.half_plane(k);
             let c = c + tol;
             if (nx * cx + ny * cy - c).abs() > reach {
@@ -293,36 +346,41 @@ impl Faith {
                 }
                 continue;
             }
-            // Column (in cells) where the boundary crosses row j: x_cross + j * step.
-            let mut x_cross = ((c - ny * y0) / nx - x0) / cell_px;
+            let x_cross = ((c - ny * y0) / nx - x0) / cell_px;
             let step = -ny / nx;
-            for j in 0..side {
-                let row = j * stride;
-                // floor/ceil by truncation after clamping to [-1, side + 1]: the
-                // library calls would dominate this loop on baseline x86-64.
-                let xc = x_cross.clamp(-1.0, side_f + 1.0);
-                if nx > 0.0 {
-                    // Violated right of the crossing.
-                    let first = ((xc + 1.0) as usize).min(side);
-                    self.grid[row + first] += 1;
-                } else {
-                    // Violated left of it: the whole row, minus the part from `end` on.
-                    // ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
-                    let xc = xc.max(0.0);
-                    let end = (side + 1 - ((side_f + 1.0 - xc) as usize)).min(side);
-                    self.grid[row + whole_row] += 1;
-                    self.grid[row + end] -= 1;
-                }
-                x_cross += step;
+            if nx > 0.0 {
+                self.rightward.push((x_cross, step));
+            } else {
+                self.leftward.push((x_cross, step));
             }
+        }
+        let top = side as f64 + 1.0;
+        for j in 0..side {
+            let row = &mut self.grid[j * stride..(j + 1) * stride];
+            let jf = j as f64;
+            // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps
+            // the truncating cast a floor (a libm floor call would dominate here).
+            for &(x, step) in &self.rightward {
+                let xc = (x + jf * step).clamp(-1.0, top);
+                row[((xc + 1.0) as usize).min(side)] += 1;
+            }
+            // Violated left of it: the whole row minus the cells from ceil(x) on,
+            // with ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
+            let mut whole = 0;
+            for &(x, step) in &self.leftward {
+                let xc = (x + jf * step).clamp(0.0, top);
+                row[(side + 1 - ((top - xc) as usize)).min(side)] -= 1;
+                whole += 1;
+            }
+            row[whole_row] += whole;
         }
         let mut least = i32::MAX;
         for j in 0..side {
-            let row = j * stride;
-            let mut acc = self.grid[row + whole_row];
-            for i in 0..side {
-                acc += self.grid[row + i];
-                self.grid[row + i] = acc;
+            let row = &mut self.grid[j * stride..(j + 1) * stride];
+            let mut acc = row[whole_row];
+            for cell in &mut row[..side] {
+                acc += *cell;
+                *cell = acc;
                 least = least.min(acc);
             }
         }
@@ -479,11 +537,17 @@ impl FoeEstimator for Faith {
         }
         if self.config.plateau_fraction > 0.0 {
             let slack = (self.config.plateau_fraction * n as f64).ceil() as i32;
-            // A coarse pass finds the plateau, a finer one around its centre measures it.
+            // A coarse pass over a sample of the boundaries finds the plateau; a fine
+            // pass over all of them around its centre measures it.
             let (r, cell) = (self.config.plateau_radius_px, self.config.plateau_cell_px);
-            for (radius_px, cell_px) in [(r, 2.0 * cell), (0.375 * r, cell)] {
-                if let Some((px, py)) = self.plateau_centroid(x, y, radius_px, cell_px, slack) {
-                    (x, y) = (px, py);
+            let stride = n.div_ceil(COARSE_LINES);
+            let coarse_slack = (slack / stride as i32).max(1);
+            for (radius_px, cell_px, slack, stride) in [
+                (r, 2.0 * cell, coarse_slack, stride),
+                (0.375 * r, cell, slack, 1),
+            ] {
+                if let Some(p) = self.plateau_centroid(x, y, radius_px, cell_px, slack, stride) {
+                    (x, y) = p;
                 }
             }
             support = self.score(x, y);
