@@ -123,10 +123,23 @@ enum BenchCommand {
         /// Worker threads (default: all cores).
         #[arg(long)]
         threads: Option<usize>,
+        /// Directory for the figures (foe_errors.png, foe_frame.png).
+        #[arg(long, default_value = "out/bench-foe")]
+        plot_dir: PathBuf,
+        /// Also fly every third trajectory with body rotation (exercises derotation).
+        #[arg(long)]
+        rotation: bool,
     },
 }
 
-fn bench_foe(trajectories: usize, seed: u64, json: bool, threads: Option<usize>) -> ExitCode {
+fn bench_foe(
+    trajectories: usize,
+    seed: u64,
+    json: bool,
+    threads: Option<usize>,
+    plot_dir: &std::path::Path,
+    rotation: bool,
+) -> ExitCode {
     if trajectories == 0 {
         eprintln!("error: --trajectories must be at least 1");
         return ExitCode::from(2);
@@ -134,6 +147,7 @@ fn bench_foe(trajectories: usize, seed: u64, json: bool, threads: Option<usize>)
     let mut options = faithd::bench::foe::BenchFoeOptions {
         trajectories,
         seed,
+        rotation,
         ..Default::default()
     };
     if let Some(t) = threads {
@@ -160,7 +174,27 @@ fn bench_foe(trajectories: usize, seed: u64, json: bool, threads: Option<usize>)
     } else {
         print!("{}", report.table());
     }
+    if let Err(e) = write_bench_figures(&report, plot_dir) {
+        eprintln!("error: {e}");
+        return ExitCode::from(1);
+    }
     ExitCode::SUCCESS
+}
+
+fn write_bench_figures(
+    report: &faithd::bench::foe::BenchFoeReport,
+    dir: &std::path::Path,
+) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let errors = dir.join("foe_errors.png");
+    faithd::bench::plot::plot_errors(report, &errors).map_err(|e| e.to_string())?;
+    eprintln!("wrote {}", errors.display());
+    if let Some(frame) = &report.example {
+        let path = dir.join("foe_frame.png");
+        faithd::bench::plot::plot_frame(frame, &path).map_err(|e| e.to_string())?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
 }
 
 fn main() -> ExitCode {
@@ -185,8 +219,10 @@ fn main() -> ExitCode {
                     seed,
                     json,
                     threads,
+                    plot_dir,
+                    rotation,
                 },
-        } => bench_foe(trajectories, seed, json, threads),
+        } => bench_foe(trajectories, seed, json, threads, &plot_dir, rotation),
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());

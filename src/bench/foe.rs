@@ -97,6 +97,23 @@ pub struct BenchFoeReport {
     pub methods: Vec<MethodResult>,
     pub windows: usize,
     pub per_trajectory: Vec<TrajectoryResult>,
+    /// The last window of the first flight, for the example figure.
+    #[serde(skip)]
+    pub example: Option<ExampleFrame>,
+}
+
+/// Everything needed to draw one evaluation window.
+#[derive(Clone, Debug)]
+pub struct ExampleFrame {
+    pub scene: &'static str,
+    pub course_deg: f64,
+    pub t_us: i64,
+    pub width_px: u16,
+    pub height_px: u16,
+    pub events: Vec<crate::event::Event>,
+    pub vectors: Vec<FlowVector>,
+    pub truth_px: (f64, f64),
+    pub estimates: Vec<(String, FoeEstimate)>,
 }
 
 /// A planned flight: which scene and how it flies.
@@ -150,8 +167,8 @@ pub fn plan_flights(n: usize, seed: u64, rotation: bool) -> Vec<PlannedFlight> {
         .collect()
 }
 
-/// One flight's summary and its evaluated windows.
-type FlightOutcome = (TrajectoryResult, Vec<WindowSample>);
+/// One flight's summary, its evaluated windows and its last window for a figure.
+type FlightOutcome = (TrajectoryResult, Vec<WindowSample>, Option<ExampleFrame>);
 
 struct WindowSample {
     errors_deg: Vec<f64>,
@@ -226,6 +243,7 @@ fn run_flight(
     let first_us = options.history_us * 2;
     let step_us = (end_us - first_us) / options.windows.max(1) as i64;
     let mut samples = Vec::new();
+    let mut example = None;
     for w in 0..options.windows {
         let t_us = first_us + step_us * (w as i64 + 1);
         let lo = vectors.partition_point(|v| v.t_us < t_us - options.history_us);
@@ -243,17 +261,34 @@ fn run_flight(
             failed: Vec::new(),
             vectors: window.len(),
         };
-        for (_, method) in methods.iter_mut() {
+        let mut estimates = Vec::new();
+        for (name, method) in methods.iter_mut() {
             let seed = crate::pipeline::window_seed(flight_seed, t_us);
             let started = Instant::now();
             let estimate = method.estimate(window, seed);
             let us = started.elapsed().as_secs_f64() * 1e6;
             let err = error_deg(&camera, &estimate, truth);
+            estimates.push((name.clone(), estimate));
             sample.failed.push(err.is_none());
             sample.errors_deg.push(err.unwrap_or(90.0));
             sample.us_per_1000.push(us * 1000.0 / window.len() as f64);
         }
         samples.push(sample);
+        let lo_ev = run
+            .events
+            .partition_point(|e| e.t_us < t_us - options.history_us);
+        let hi_ev = run.events.partition_point(|e| e.t_us < t_us);
+        example = Some(ExampleFrame {
+            scene: flight.scene.name(),
+            course_deg: flight.trajectory.course_deg,
+            t_us,
+            width_px: camera.width_px,
+            height_px: camera.height_px,
+            events: run.events[lo_ev..hi_ev].to_vec(),
+            vectors: window.to_vec(),
+            truth_px: truth,
+            estimates,
+        });
     }
     let n_methods = methods.len();
     let mean_error_deg = (0..n_methods)
@@ -269,7 +304,7 @@ fn run_flight(
         mean_vectors: mean(samples.iter().map(|s| s.vectors as f64)),
         mean_error_deg,
     };
-    (result, samples)
+    (result, samples, example)
 }
 
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
@@ -330,19 +365,19 @@ pub fn run(
         .map(|(m, name)| {
             let per_traj: Vec<f64> = results
                 .iter()
-                .map(|(t, _)| t.mean_error_deg[m])
+                .map(|(t, _, _)| t.mean_error_deg[m])
                 .filter(|e| e.is_finite())
                 .collect();
             let mu = mean(per_traj.iter().copied());
             let var = mean(per_traj.iter().map(|e| (e - mu) * (e - mu)));
             let mut times: Vec<f64> = results
                 .iter()
-                .flat_map(|(_, s)| s.iter().map(move |w| w.us_per_1000[m]))
+                .flat_map(|(_, s, _)| s.iter().map(move |w| w.us_per_1000[m]))
                 .collect();
             times.sort_by(f64::total_cmp);
             let failed_windows = results
                 .iter()
-                .flat_map(|(_, s)| s.iter().filter(move |w| w.failed[m]))
+                .flat_map(|(_, s, _)| s.iter().filter(move |w| w.failed[m]))
                 .count();
             MethodResult {
                 name: name.clone(),
@@ -355,13 +390,15 @@ pub fn run(
             }
         })
         .collect();
-    let windows = results.iter().map(|(_, s)| s.len()).sum();
+    let windows = results.iter().map(|(_, s, _)| s.len()).sum();
+    let example = results.iter().find_map(|(_, _, e)| e.clone());
     BenchFoeReport {
         trajectories: options.trajectories,
         seed: options.seed,
         methods,
         windows,
-        per_trajectory: results.into_iter().map(|(t, _)| t).collect(),
+        per_trajectory: results.into_iter().map(|(t, _, _)| t).collect(),
+        example,
     }
 }
 
