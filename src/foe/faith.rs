@@ -30,7 +30,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
 use super::polygon::{ConvexPolygon, HalfPlane};
-use super::{FoeEstimate, FoeEstimator, Side};
+use super::{FoeEstimate, FoeEstimator};
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
 
@@ -563,20 +563,14 @@ impl FoeEstimator for Faith {
 impl Faith {
     /// The FOE lies beyond the view, in the direction of `(x, y)` from the centre.
     fn unbounded(&self, x: f64, y: f64, support: usize) -> FoeEstimate {
-        let (dx, dy) = (x - self.camera.cx_px, y - self.camera.cy_px);
-        let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
-        FoeEstimate::Unbounded {
-            side: Side::of_direction(dx, dy),
-            dx: dx / len,
-            dy: dy / len,
-            support,
-        }
+        FoeEstimate::unbounded_towards(&self.camera, x, y, None, support)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::foe::Side;
     use crate::synth::{FlowFieldSpec, radial_normal_flow};
 
     fn run(config: FaithConfig, spec: &FlowFieldSpec, seed: u64) -> FoeEstimate {

@@ -16,6 +16,7 @@ pub use half_plane_map::{HalfPlaneMap, HalfPlaneMapConfig};
 pub use nesw::Nesw;
 pub use vec_intersections::{VecIntersections, VecIntersectionsConfig};
 
+use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
 
 /// Which image border the FOE lies beyond when it is outside the field of view.
@@ -73,6 +74,25 @@ pub enum FoeEstimate {
 }
 
 impl FoeEstimate {
+    /// The FOE lies beyond the view, in the direction of `(x_px, y_px)` seen from the
+    /// principal point; `side` is that direction's dominant side unless given.
+    pub fn unbounded_towards(
+        camera: &CameraIntrinsics,
+        x_px: f64,
+        y_px: f64,
+        side: Option<Side>,
+        support: usize,
+    ) -> Self {
+        let (dx, dy) = (x_px - camera.cx_px, y_px - camera.cy_px);
+        let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
+        FoeEstimate::Unbounded {
+            side: side.unwrap_or_else(|| Side::of_direction(dx, dy)),
+            dx: dx / len,
+            dy: dy / len,
+            support,
+        }
+    }
+
     pub fn point(&self) -> Option<(f64, f64)> {
         match *self {
             FoeEstimate::Point { x_px, y_px, .. } => Some((x_px, y_px)),

@@ -129,16 +129,7 @@ impl FoeEstimator for Nesw {
             (None, None) => None,
         };
         match side {
-            Some(side) => {
-                let (dx, dy) = (x - self.camera.cx_px, y - self.camera.cy_px);
-                let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
-                FoeEstimate::Unbounded {
-                    side,
-                    dx: dx / len,
-                    dy: dy / len,
-                    support,
-                }
-            }
+            Some(side) => FoeEstimate::unbounded_towards(&self.camera, x, y, Some(side), support),
             None => FoeEstimate::Point {
                 x_px: x,
                 y_px: y,

@@ -11,7 +11,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
-use super::{FoeEstimate, FoeEstimator, Side};
+use super::{FoeEstimate, FoeEstimator};
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
 
@@ -143,14 +143,7 @@ impl FoeEstimator for VecIntersections {
         );
         let m = self.config.max_outside_px;
         if x < -m || y < -m || x > w + m || y > h + m {
-            let (dx, dy) = (x - self.camera.cx_px, y - self.camera.cy_px);
-            let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
-            return FoeEstimate::Unbounded {
-                side: Side::of_direction(dx, dy),
-                dx: dx / len,
-                dy: dy / len,
-                support,
-            };
+            return FoeEstimate::unbounded_towards(&self.camera, x, y, None, support);
         }
         FoeEstimate::Point {
             x_px: x,
@@ -163,6 +156,7 @@ impl FoeEstimator for VecIntersections {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::foe::Side;
     use crate::synth::{FlowFieldSpec, radial_normal_flow};
 
     /// Full (not normal) radial flow with direction noise.
