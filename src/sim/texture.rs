@@ -86,10 +86,14 @@ impl Texture {
 /// Width of plank and tile joints, in feature units.
 const JOINT: f64 = 0.06;
 
-/// Weight of a feature `x` footprints small... i.e. of size 1/x footprints: full down
-/// to two pixels per feature, gone at one.
+/// Contrast kept by a feature whose size is `1 / x` pixel footprints: full from four
+/// pixels up, none at two or fewer. A DVS240's lens and its large, low-fill-factor
+/// pixels pass little contrast near the sampling limit; without this fall-off,
+/// point-sampled detail aliases into patterns that drift against the true motion and
+/// fire events no real camera would (FAITH's mean error on a 24-trajectory `bench foe`
+/// run: 24 degrees with no fall-off, 9.6 with it from two pixels, 8.3 from four).
 fn fade(x: f64) -> f64 {
-    (2.0 - 2.0 * x).clamp(0.0, 1.0)
+    (2.0 - 4.0 * x).clamp(0.0, 1.0)
 }
 
 /// Hash of an integer lattice point to [-1, 1].
