@@ -18,8 +18,10 @@ const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
 pub struct FlowConfig {
     /// Neighbourhood half-size: 2 gives the 5x5 patch of Benosman 2014. At most 5.
     pub radius_px: u16,
-    /// Only neighbours that fired within this time before the event are fitted. Slow
-    /// edges (10 px/s) need 5 px * 100 ms to cross a 5x5 patch.
+    /// Only neighbours that fired within this time before the event are fitted. Longer
+    /// windows keep slow edges (near the FOE, where the flow is slowest) but make their
+    /// flow lag behind a changing course; 150 ms gave the lowest FOE error on the
+    /// simulator (mean 6.5 degrees against 8.3 at 300 ms and 8.5 at 50 ms, 24 flights).
     pub window_us: i64,
     /// A pixel firing again within this time of its previous same-polarity event is
     /// ignored: one edge makes bursts of events per pixel, and only the first is on
@@ -45,7 +47,7 @@ impl Default for FlowConfig {
     fn default() -> Self {
         Self {
             radius_px: 2,
-            window_us: 300_000,
+            window_us: 150_000,
             refractory_us: 1_000,
             min_points: 8,
             outlier_residual_us: 20_000.0,
