@@ -22,8 +22,8 @@
 //!   lines pass near the FOE tell those points apart), so the single best-scoring point
 //!   wanders anywhere on that plateau. faithd reports the centroid of the plateau (the
 //!   points within a small fraction of the best score), computed on a local grid with
-//!   one pass per half-plane and grid row. On the simulator this cuts the course error
-//!   several fold (README, `faithd bench foe`).
+//!   one pass per half-plane and grid row. Together these give 17 % less course error
+//!   than the paper's variant on the simulator (README, `faithd bench foe`).
 
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -96,6 +96,17 @@ impl FaithConfig {
             ..Self::default()
         }
     }
+}
+
+/// The four sides of the sensor rectangle grown by `margin_px`, as half-planes.
+fn sensor_box_sides(max_x_px: f64, max_y_px: f64, margin_px: f64) -> [HalfPlane; 4] {
+    let side = |nx, ny, c| HalfPlane { nx, ny, c };
+    [
+        side(-1.0, 0.0, margin_px),
+        side(0.0, -1.0, margin_px),
+        side(1.0, 0.0, max_x_px + margin_px),
+        side(0.0, 1.0, max_y_px + margin_px),
+    ]
 }
 
 /// Boundaries sampled for the coarse plateau pass: enough to place the plateau.
@@ -183,8 +194,7 @@ impl Faith {
     }
 
     fn set_box(&mut self, margin_px: f64) {
-        let w = f64::from(self.camera.width_px) - 1.0;
-        let h = f64::from(self.camera.height_px) - 1.0;
+        let (w, h) = self.sensor_max_px();
         self.area
             .set_rectangle(-margin_px, -margin_px, w + margin_px, h + margin_px);
     }
@@ -414,28 +424,7 @@ impl Faith {
     fn area_overlaps_view(&mut self) -> bool {
         let (w, h) = self.sensor_max_px();
         self.cut.copy_from(&self.area);
-        for half in [
-            HalfPlane {
-                nx: -1.0,
-                ny: 0.0,
-                c: 0.0,
-            },
-            HalfPlane {
-                nx: 0.0,
-                ny: -1.0,
-                c: 0.0,
-            },
-            HalfPlane {
-                nx: 1.0,
-                ny: 0.0,
-                c: w,
-            },
-            HalfPlane {
-                nx: 0.0,
-                ny: 1.0,
-                c: h,
-            },
-        ] {
+        for half in sensor_box_sides(w, h, 0.0) {
             self.cut.clip_into(&half, &mut self.scratch);
             std::mem::swap(&mut self.cut, &mut self.scratch);
         }
@@ -445,8 +434,7 @@ impl Faith {
     /// Does the area reach the far box, i.e. is the true intersection unbounded?
     fn reaches_far_box(&self, poly: &ConvexPolygon) -> bool {
         let m = self.config.unbounded_margin_px;
-        let w = f64::from(self.camera.width_px) - 1.0;
-        let h = f64::from(self.camera.height_px) - 1.0;
+        let (w, h) = self.sensor_max_px();
         let edge_tol = 1e-6 * m.max(1.0);
         poly.vertices().iter().any(|&(x, y)| {
             x <= -m + edge_tol
@@ -499,30 +487,9 @@ impl FoeEstimator for Faith {
             }
             // The data allow an FOE in view: prefer it, as the vehicle flies at what it
             // sees. Its estimate is the consensus area within the search box.
-            let m = self.config.search_margin_px;
+            let margin = self.config.search_margin_px;
             let (w, h) = self.sensor_max_px();
-            for half in [
-                HalfPlane {
-                    nx: -1.0,
-                    ny: 0.0,
-                    c: m,
-                },
-                HalfPlane {
-                    nx: 0.0,
-                    ny: -1.0,
-                    c: m,
-                },
-                HalfPlane {
-                    nx: 1.0,
-                    ny: 0.0,
-                    c: w + m,
-                },
-                HalfPlane {
-                    nx: 0.0,
-                    ny: 1.0,
-                    c: h + m,
-                },
-            ] {
+            for half in sensor_box_sides(w, h, margin) {
                 self.area.clip_into(&half, &mut self.cut);
                 if !self.cut.is_empty() {
                     std::mem::swap(&mut self.area, &mut self.cut);
