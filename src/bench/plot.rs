@@ -4,6 +4,7 @@
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
@@ -87,26 +88,15 @@ pub fn plot_errors(report: &BenchFoeReport, path: &Path) -> Result<(), PlotError
         .disable_x_mesh()
         .draw()
         .map_err(|e| err(e.to_string()))?;
-    for (i, m) in report.methods.iter().enumerate() {
-        let x = i as f64;
-        let colour = METHOD_COLOURS[i % METHOD_COLOURS.len()];
-        chart
-            .draw_series(std::iter::once(Rectangle::new(
-                [(x - 0.35, 0.0), (x + 0.35, m.mean_error_deg)],
-                colour.filled(),
-            )))
-            .map_err(|e| err(e.to_string()))?;
-        let (lo, hi) = (
-            (m.mean_error_deg - m.std_error_deg).max(0.0),
-            m.mean_error_deg + m.std_error_deg,
-        );
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(x, lo), (x, hi)],
-                BLACK.stroke_width(2),
-            )))
-            .map_err(|e| err(e.to_string()))?;
-    }
+    let bars: Vec<_> = report
+        .methods
+        .iter()
+        .map(|m| {
+            let spread = (m.mean_error_deg - m.std_error_deg).max(0.0);
+            (m.mean_error_deg, spread, m.mean_error_deg + m.std_error_deg)
+        })
+        .collect();
+    draw_bars(&mut chart, &bars, 0.0).map_err(&err)?;
 
     let max_us = report
         .methods
@@ -129,26 +119,48 @@ pub fn plot_errors(report: &BenchFoeReport, path: &Path) -> Result<(), PlotError
         .disable_x_mesh()
         .draw()
         .map_err(|e| err(e.to_string()))?;
-    for (i, m) in report.methods.iter().enumerate() {
+    let bars: Vec<_> = report
+        .methods
+        .iter()
+        .map(|m| {
+            (
+                m.us_per_1000_vectors.max(1.0),
+                m.us_per_1000_vectors_p10.max(1.0),
+                m.us_per_1000_vectors_p90.max(1.0),
+            )
+        })
+        .collect();
+    draw_bars(&mut chart, &bars, 1.0).map_err(&err)?;
+    root.present().map_err(|e| err(e.to_string()))
+}
+
+/// One coloured bar per method from `base` to its value, with a whisker from `lo` to
+/// `hi`; bars sit at x = 0, 1, 2, ...
+fn draw_bars<Y>(
+    chart: &mut ChartContext<'_, BitMapBackend<'_>, Cartesian2d<RangedCoordf64, Y>>,
+    bars: &[(f64, f64, f64)],
+    base: f64,
+) -> Result<(), String>
+where
+    Y: Ranged<ValueType = f64>,
+{
+    for (i, &(value, lo, hi)) in bars.iter().enumerate() {
         let x = i as f64;
         let colour = METHOD_COLOURS[i % METHOD_COLOURS.len()];
         chart
             .draw_series(std::iter::once(Rectangle::new(
-                [(x - 0.35, 1.0), (x + 0.35, m.us_per_1000_vectors.max(1.0))],
+                [(x - 0.35, base), (x + 0.35, value)],
                 colour.filled(),
             )))
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
         chart
             .draw_series(std::iter::once(PathElement::new(
-                vec![
-                    (x, m.us_per_1000_vectors_p10.max(1.0)),
-                    (x, m.us_per_1000_vectors_p90.max(1.0)),
-                ],
+                vec![(x, lo), (x, hi)],
                 BLACK.stroke_width(2),
             )))
-            .map_err(|e| err(e.to_string()))?;
+            .map_err(|e| e.to_string())?;
     }
-    root.present().map_err(|e| err(e.to_string()))
+    Ok(())
 }
 
 /// One evaluation window: its events, its (derotated) flow, the true FOE and every

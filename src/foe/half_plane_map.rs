@@ -81,14 +81,7 @@ impl FoeEstimator for HalfPlaneMap {
         } else {
             None
         };
-        match side {
-            Some(side) => FoeEstimate::unbounded_towards(&self.camera, x, y, Some(side), support),
-            None => FoeEstimate::Point {
-                x_px: x,
-                y_px: y,
-                support,
-            },
-        }
+        FoeEstimate::point_or_beyond(&self.camera, x, y, side, support)
     }
 }
 

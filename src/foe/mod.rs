@@ -93,6 +93,24 @@ impl FoeEstimate {
         }
     }
 
+    /// A point, or `Unbounded` toward it when the method found it on a border `side`.
+    pub fn point_or_beyond(
+        camera: &CameraIntrinsics,
+        x_px: f64,
+        y_px: f64,
+        side: Option<Side>,
+        support: usize,
+    ) -> Self {
+        match side {
+            Some(side) => Self::unbounded_towards(camera, x_px, y_px, Some(side), support),
+            None => FoeEstimate::Point {
+                x_px,
+                y_px,
+                support,
+            },
+        }
+    }
+
     pub fn point(&self) -> Option<(f64, f64)> {
         match *self {
             FoeEstimate::Point { x_px, y_px, .. } => Some((x_px, y_px)),
