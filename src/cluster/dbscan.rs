@@ -67,11 +67,17 @@ impl Dbscan {
         }
     }
 
+    /// Grid cell of a point; `None` only for a non-finite coordinate.
+    ///
+    /// Cells are a hair wider than eps so that rounding in the division can never put
+    /// two points within eps of each other two cells apart. Coordinates beyond the i32
+    /// range are clamped: that can only merge far-apart cells, never split neighbours,
+    /// so the labels still equal the brute-force reference.
     fn cell_of(&self, p: &[f64; 3]) -> Option<CellKey> {
-        let inv = 1.0 / self.config.eps;
+        let side = self.config.eps.max(f64::MIN_POSITIVE) * (1.0 + 1e-9);
         let k = |v: f64| {
-            let c = (v * inv).floor();
-            (c.is_finite() && c.abs() < 1e9).then_some(c as i32)
+            v.is_finite()
+                .then(|| (v / side).floor().clamp(-1e9, 1e9) as i32)
         };
         Some((k(p[0])?, k(p[1])?, k(p[2])?))
     }
@@ -305,6 +311,19 @@ mod tests {
     }
 
     #[test]
+    fn far_away_points_cluster_as_in_the_reference() {
+        let config = DbscanConfig {
+            eps: 0.2,
+            min_points: 2,
+        };
+        let pts = [[1e12, 0.0, 0.0], [1e12, 0.0, 0.0], [-1e12, 5.0, 0.0]];
+        let mut labels = Vec::new();
+        Dbscan::new(config).run(&pts, &mut labels);
+        assert_eq!(labels, vec![Some(0), Some(0), None]);
+        assert_eq!(labels, dbscan_brute_force(&pts, &config));
+    }
+
+    #[test]
     fn min_points_counts_the_point_itself() {
         let config = DbscanConfig {
             eps: 0.2,
@@ -370,6 +389,24 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Points on a lattice put many pairs at exactly eps and on cell boundaries,
+        /// where a grid and the brute-force reference are most likely to disagree.
+        #[test]
+        fn grid_matches_brute_force_on_a_lattice(
+            pts in prop::collection::vec((0i32..20, 0i32..20, -20i32..20), 0..300),
+            step in prop::sample::select(vec![0.05f64, 0.1, 0.2]),
+            min_points in 1usize..12,
+        ) {
+            let pts: Vec<[f64; 3]> = pts
+                .into_iter()
+                .map(|(a, b, c)| [f64::from(a) * step, f64::from(b) * step, f64::from(c) * step])
+                .collect();
+            let config = DbscanConfig { eps: 0.2, min_points };
+            let mut labels = Vec::new();
+            Dbscan::new(config).run(&pts, &mut labels);
+            prop_assert_eq!(labels, dbscan_brute_force(&pts, &config));
+        }
+
         #[test]
         fn grid_matches_brute_force(
             pts in prop::collection::vec((0.0..1.0f64, 0.0..1.0f64, -2.0..2.0f64), 0..300),
