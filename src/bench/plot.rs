@@ -92,8 +92,8 @@ pub fn plot_errors(report: &BenchFoeReport, path: &Path) -> Result<(), PlotError
         .methods
         .iter()
         .map(|m| {
-            let spread = (m.mean_error_deg - m.std_error_deg).max(0.0);
-            (m.mean_error_deg, spread, m.mean_error_deg + m.std_error_deg)
+            let lo = (m.mean_error_deg - m.std_error_deg).max(0.0);
+            (m.mean_error_deg, lo, m.mean_error_deg + m.std_error_deg)
         })
         .collect();
     draw_bars(&mut chart, &bars, 0.0).map_err(&err)?;
