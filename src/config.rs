@@ -7,13 +7,26 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::command::CommandConfig;
+use crate::daemon::DaemonConfig;
+use crate::daemon::source::SourceConfig;
+use crate::link::MavlinkConfig;
+use crate::link::endpoint::Endpoint;
 use crate::pipeline::PipelineConfig;
+use crate::safety::gate::GateConfig;
+use crate::safety::manoeuvre::ManoeuvreConfig;
 
-/// The whole file. Sections for the links and the daemon join as they are built.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+/// The whole file.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FaithdConfig {
     pub pipeline: PipelineConfig,
+    pub mavlink: MavlinkConfig,
+    pub gate: GateConfig,
+    pub manoeuvre: ManoeuvreConfig,
+    pub command: CommandConfig,
+    pub daemon: DaemonConfig,
+    pub source: SourceConfig,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -68,7 +81,10 @@ impl FaithdConfig {
 
     /// Checks every value a type cannot express (ranges, orderings, finiteness).
     pub fn validate(&self) -> Result<(), Invalid> {
-        validate_pipeline(&self.pipeline)
+        validate_pipeline(&self.pipeline)?;
+        validate_links(self)?;
+        validate_safety(self)?;
+        validate_daemon(self)
     }
 }
 
@@ -249,6 +265,183 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         || format!("must be a fraction 0..1, got {}", de.min_foe_support),
     )?;
     Ok(())
+}
+
+fn validate_links(c: &FaithdConfig) -> Result<(), Invalid> {
+    let m = &c.mavlink;
+    Endpoint::parse(&m.endpoint, m.baud).map_err(|reason| Invalid {
+        key: "mavlink.endpoint",
+        reason,
+    })?;
+    check(m.baud >= 1200, "mavlink.baud", || {
+        format!("must be a serial baud rate, got {}", m.baud)
+    })?;
+    check(m.system_id >= 1, "mavlink.system_id", || {
+        "must be 1 to 255".into()
+    })?;
+    check(m.component_id >= 1, "mavlink.component_id", || {
+        "must be 1 to 255".into()
+    })?;
+    check(
+        m.autopilot_system_id >= 1,
+        "mavlink.autopilot_system_id",
+        || "must be 1 to 255".into(),
+    )?;
+    check(
+        (10_000..=10_000_000).contains(&m.heartbeat_period_us),
+        "mavlink.heartbeat_period_us",
+        || format!("must be 10 ms to 10 s, got {}", m.heartbeat_period_us),
+    )?;
+    check(
+        m.reconnect_min_us >= 1000 && m.reconnect_min_us <= m.reconnect_max_us,
+        "mavlink.reconnect_min_us",
+        || "must be at least 1 ms and at most reconnect_max_us".into(),
+    )?;
+    check(
+        m.reconnect_max_us <= 60_000_000,
+        "mavlink.reconnect_max_us",
+        || format!("must be at most 60 s, got {}", m.reconnect_max_us),
+    )?;
+    check(
+        (100_000..=60_000_000).contains(&m.silence_timeout_us),
+        "mavlink.silence_timeout_us",
+        || format!("must be 100 ms to 60 s, got {}", m.silence_timeout_us),
+    )?;
+    let cmd = &c.command;
+    if cmd.sink == crate::command::SinkKind::Msp {
+        Endpoint::parse(&cmd.msp_endpoint, cmd.msp_baud).map_err(|reason| Invalid {
+            key: "command.msp_endpoint",
+            reason,
+        })?;
+        check(
+            cmd.msp_endpoint != m.endpoint,
+            "command.msp_endpoint",
+            || "must be a different port from mavlink.endpoint".into(),
+        )?;
+    }
+    check(
+        cmd.release_us == 0 || (800..=2200).contains(&cmd.release_us),
+        "command.release_us",
+        || {
+            format!(
+                "must be 0 (protocol release) or 800..2200, got {}",
+                cmd.release_us
+            )
+        },
+    )
+}
+
+fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
+    let g = &c.gate;
+    check(
+        (1..=18).contains(&g.switch_channel),
+        "gate.switch_channel",
+        || format!("must be an RC channel 1 to 18, got {}", g.switch_channel),
+    )?;
+    check(
+        g.auto_min_us <= g.auto_max_us && g.auto_min_us >= 800 && g.auto_max_us <= 2200,
+        "gate.auto_min_us",
+        || {
+            format!(
+                "AUTO range {}..{} must lie in 800..2200 with min <= max",
+                g.auto_min_us, g.auto_max_us
+            )
+        },
+    )?;
+    for (v, key) in [
+        (g.rc_stale_us, "gate.rc_stale_us"),
+        (g.attitude_stale_us, "gate.attitude_stale_us"),
+        (g.heartbeat_stale_us, "gate.heartbeat_stale_us"),
+        (g.pipeline_stale_us, "gate.pipeline_stale_us"),
+    ] {
+        check((1000..=10_000_000).contains(&v), key, || {
+            format!("must be 1 ms to 10 s, got {v}")
+        })?;
+    }
+    let m = &c.manoeuvre;
+    check(
+        (1..=18).contains(&m.roll_channel),
+        "manoeuvre.roll_channel",
+        || format!("must be an RC channel 1 to 18, got {}", m.roll_channel),
+    )?;
+    check(
+        m.roll_channel != g.switch_channel,
+        "manoeuvre.roll_channel",
+        || "must not be the pilot's switch channel".into(),
+    )?;
+    check(
+        (1000..=2000).contains(&m.neutral_us),
+        "manoeuvre.neutral_us",
+        || format!("must be 1000..2000, got {}", m.neutral_us),
+    )?;
+    check(
+        (1..=500).contains(&m.deflection_us)
+            && m.neutral_us - m.deflection_us >= 1000
+            && m.neutral_us + m.deflection_us <= 2000,
+        "manoeuvre.deflection_us",
+        || {
+            format!(
+                "must be 1..500 and keep the stick within 1000..2000, got {}",
+                m.deflection_us
+            )
+        },
+    )?;
+    check(
+        (5_000..=500_000).contains(&m.resend_period_us),
+        "manoeuvre.resend_period_us",
+        || format!("must be 5 to 500 ms, got {}", m.resend_period_us),
+    )?;
+    check(
+        (1..=50).contains(&m.release_repeats),
+        "manoeuvre.release_repeats",
+        || format!("must be 1 to 50, got {}", m.release_repeats),
+    )?;
+    check(
+        (0..=60_000_000).contains(&m.cooldown_us),
+        "manoeuvre.cooldown_us",
+        || format!("must be 0 to 60 s, got {}", m.cooldown_us),
+    )
+}
+
+fn validate_daemon(c: &FaithdConfig) -> Result<(), Invalid> {
+    let d = &c.daemon;
+    check(
+        (1000..=100_000).contains(&d.period_us),
+        "daemon.period_us",
+        || format!("must be 1 to 100 ms, got {}", d.period_us),
+    )?;
+    check(
+        d.budget_us > 0 && d.budget_us <= d.period_us,
+        "daemon.budget_us",
+        || {
+            format!(
+                "must be positive and at most period_us, got {}",
+                d.budget_us
+            )
+        },
+    )?;
+    check(d.shed_min_vectors >= 1, "daemon.shed_min_vectors", || {
+        "must be at least 1".into()
+    })?;
+    check(
+        d.shed_min_iterations >= 1,
+        "daemon.shed_min_iterations",
+        || "must be at least 1".into(),
+    )?;
+    check(
+        (1000..=10_000_000).contains(&d.event_stale_us),
+        "daemon.event_stale_us",
+        || format!("must be 1 ms to 10 s, got {}", d.event_stale_us),
+    )?;
+    let s = &c.source;
+    check(
+        s.sim_first_approach_us >= 0,
+        "source.sim_first_approach_us",
+        || "must not be negative".into(),
+    )?;
+    check(s.sim_repeat_us >= 1_000_000, "source.sim_repeat_us", || {
+        format!("must be at least 1 s, got {}", s.sim_repeat_us)
+    })
 }
 
 #[cfg(test)]

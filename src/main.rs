@@ -101,6 +101,12 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
+    /// The flight daemon: camera, pipeline, safety gate and MAVLink to the autopilot.
+    Run {
+        /// Path to faithd.toml.
+        #[arg(long, default_value = "/etc/faithd/faithd.toml")]
+        config: PathBuf,
+    },
     /// Validate a config file: prints `ok` or the key and the reason it is refused.
     CheckConfig {
         /// Path to faithd.toml.
@@ -197,6 +203,23 @@ fn write_bench_figures(
     Ok(())
 }
 
+fn run(path: &std::path::Path) -> ExitCode {
+    let config = match FaithdConfig::load(path) {
+        Ok(c) => c,
+        Err(e) => {
+            tracing::error!("refusing to start: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    match faithd::daemon::run(config) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            tracing::error!("{e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     tracing_subscriber::fmt()
@@ -205,6 +228,7 @@ fn main() -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
     match cli.command {
         Command::Demo {
@@ -223,6 +247,7 @@ fn main() -> ExitCode {
                     rotation,
                 },
         } => bench_foe(trajectories, seed, json, threads, &plot_dir, rotation),
+        Command::Run { config } => run(&config),
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());

@@ -140,10 +140,10 @@ impl Scene {
     pub fn cast(&self, origin: &Vector3<f64>, dir: &Vector3<f64>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let consider = |i: usize, best: &mut Option<Hit>| {
-            if let Some(h) = self.solids[i].shape.intersect(origin, dir) {
-                if best.is_none_or(|b| h.t < b.t) {
-                    *best = Some(Hit { solid: i, ..h });
-                }
+            if let Some(h) = self.solids[i].shape.intersect(origin, dir)
+                && best.is_none_or(|b| h.t < b.t)
+            {
+                *best = Some(Hit { solid: i, ..h });
             }
         };
         for &i in &self.always {

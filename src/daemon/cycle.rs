@@ -1,0 +1,137 @@
+//! The pipeline thread: one cycle per period, within a budget.
+//!
+//! Each cycle takes the events that arrived, the attitude that covers them, runs the
+//! pipeline, publishes its health and any roll decision, and measures itself. A
+//! cycle over budget makes the next ones cheaper ([`super::shed`]); a late cycle
+//! skips the missed periods instead of running back to back. The MAVLink side never
+//! waits for this thread: everything leaves it through non-blocking sends.
+
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use tokio::sync::{mpsc, watch};
+
+use super::DaemonConfig;
+use super::clock::DaemonClock;
+use super::shed::Shedder;
+use crate::decide::{Action, Decision};
+use crate::event::Event;
+use crate::link::AttitudeLog;
+use crate::pipeline::{Pipeline, PipelineConfig};
+use crate::safety::gate::{PipelineProblem, PipelineStatus};
+
+pub struct CycleIo {
+    pub events: Receiver<Vec<Event>>,
+    pub attitude: Arc<Mutex<AttitudeLog>>,
+    pub status: watch::Sender<PipelineStatus>,
+    pub decisions: mpsc::Sender<Decision>,
+}
+
+/// Runs until the event source hangs up.
+pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonClock, io: CycleIo) {
+    let mut pipeline = Pipeline::new(pipeline_config);
+    let mut shedder = Shedder::new(
+        pipeline_config.max_vectors,
+        pipeline_config.faith.iterations,
+        config.shed_min_vectors,
+        config.shed_min_iterations,
+    );
+    let mut pending: Vec<Event> = Vec::new();
+    let mut attitude = Vec::new();
+    let mut last_batch_us = clock.now_us();
+    let mut last_logged: Option<(
+        std::mem::Discriminant<Action>,
+        std::mem::Discriminant<crate::decide::Reason>,
+    )> = None;
+    let mut next_us = clock.now_us() + config.period_us;
+    let mut stage_clock = clock;
+    loop {
+        // Wait for the period's end, taking batches as they come.
+        loop {
+            let now = clock.now_us();
+            if now >= next_us {
+                break;
+            }
+            match io
+                .events
+                .recv_timeout(Duration::from_micros((next_us - now) as u64))
+            {
+                Ok(batch) => {
+                    last_batch_us = clock.now_us();
+                    pending.extend(batch);
+                }
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => {
+                    tracing::warn!("event source ended; pipeline thread stops");
+                    return;
+                }
+            }
+        }
+        let started_us = clock.now_us();
+        let window_end_us = started_us;
+        let take = pending.partition_point(|e| e.t_us <= window_end_us);
+        io.attitude.lock().expect("attitude log lock").copy_since(
+            window_end_us - pipeline_config.history_us - 100_000,
+            &mut attitude,
+        );
+        let report =
+            pipeline.process_window(&pending[..take], &attitude, window_end_us, &mut stage_clock);
+        let decision = report.decision;
+        let derotated = report.derotation.applied;
+        pending.drain(..take);
+
+        let problem = if started_us - last_batch_us > config.event_stale_us {
+            Some(PipelineProblem::NoEvents)
+        } else if !derotated {
+            Some(PipelineProblem::NoAttitude)
+        } else {
+            None
+        };
+        io.status.send_replace(PipelineStatus {
+            last_cycle_us: Some(started_us),
+            problem,
+        });
+        let key = (
+            std::mem::discriminant(&decision.action),
+            std::mem::discriminant(&decision.reason),
+        );
+        if last_logged != Some(key) {
+            tracing::info!(t_us = decision.t_us, "decision: {decision}");
+            last_logged = Some(key);
+        } else {
+            tracing::debug!(t_us = decision.t_us, "decision: {decision}");
+        }
+        if matches!(decision.action, Action::Roll { .. }) {
+            // Full means the commander has an unread roll already: dropping is fine.
+            let _ = io.decisions.try_send(decision);
+        }
+
+        let cycle_us = clock.now_us() - started_us;
+        if let Some(load) = shedder.observe(cycle_us, config.budget_us) {
+            pipeline.set_max_vectors(load.max_vectors);
+            pipeline.set_foe_iterations(load.iterations);
+            tracing::warn!(
+                level = load.level,
+                max_vectors = load.max_vectors,
+                iterations = load.iterations,
+                "load level changed"
+            );
+        }
+        if cycle_us > config.budget_us {
+            tracing::warn!(
+                cycle_us,
+                budget_us = config.budget_us,
+                overruns = shedder.overruns,
+                "cycle overran its budget"
+            );
+        }
+        next_us += config.period_us;
+        let now = clock.now_us();
+        if now >= next_us {
+            // Late: skip the missed periods rather than run back to back.
+            let missed = (now - next_us) / config.period_us + 1;
+            next_us += missed * config.period_us;
+        }
+    }
+}

@@ -1,0 +1,137 @@
+//! Load shedding: a cycle that overran its budget makes the next ones cheaper.
+//!
+//! Each level halves the flow vectors per decision and FAITH's RANSAC iterations,
+//! down to floors that still give a usable FOE. A long calm stretch (cycles well
+//! under budget) climbs back one level at a time. Pure.
+
+/// Cycles below a quarter of the budget in a row before one level is restored.
+const CALM_CYCLES: u32 = 100;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Load {
+    pub level: u32,
+    pub max_vectors: usize,
+    pub iterations: u32,
+}
+
+#[derive(Clone, Debug)]
+pub struct Shedder {
+    full: Load,
+    min_vectors: usize,
+    min_iterations: u32,
+    level: u32,
+    calm: u32,
+    /// Cycles that overran their budget since start.
+    pub overruns: u64,
+}
+
+impl Shedder {
+    pub fn new(
+        max_vectors: usize,
+        iterations: u32,
+        min_vectors: usize,
+        min_iterations: u32,
+    ) -> Self {
+        Self {
+            full: Load {
+                level: 0,
+                max_vectors,
+                iterations,
+            },
+            min_vectors: min_vectors.min(max_vectors),
+            min_iterations: min_iterations.min(iterations),
+            level: 0,
+            calm: 0,
+            overruns: 0,
+        }
+    }
+
+    pub fn load(&self) -> Load {
+        let k = self.level;
+        Load {
+            level: k,
+            max_vectors: (self.full.max_vectors >> k).max(self.min_vectors),
+            iterations: (self.full.iterations >> k).max(self.min_iterations),
+        }
+    }
+
+    fn at_floor(&self) -> bool {
+        let l = self.load();
+        l.max_vectors == self.min_vectors && l.iterations == self.min_iterations
+    }
+
+    /// Records one cycle; returns the new load when it changed.
+    pub fn observe(&mut self, cycle_us: i64, budget_us: i64) -> Option<Load> {
+        if cycle_us > budget_us {
+            self.overruns += 1;
+            self.calm = 0;
+            if self.at_floor() {
+                return None;
+            }
+            self.level += 1;
+            return Some(self.load());
+        }
+        if cycle_us * 4 < budget_us && self.level > 0 {
+            self.calm += 1;
+            if self.calm >= CALM_CYCLES {
+                self.calm = 0;
+                self.level -= 1;
+                return Some(self.load());
+            }
+        } else {
+            self.calm = 0;
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overruns_halve_down_to_the_floor_and_calm_restores() {
+        let mut s = Shedder::new(3000, 52, 300, 13);
+        assert_eq!(
+            s.observe(12_000, 8_000).unwrap(),
+            Load {
+                level: 1,
+                max_vectors: 1500,
+                iterations: 26
+            }
+        );
+        assert_eq!(
+            s.observe(12_000, 8_000).unwrap(),
+            Load {
+                level: 2,
+                max_vectors: 750,
+                iterations: 13
+            }
+        );
+        assert_eq!(
+            s.observe(12_000, 8_000).unwrap(),
+            Load {
+                level: 3,
+                max_vectors: 375,
+                iterations: 13
+            }
+        );
+        assert_eq!(
+            s.observe(12_000, 8_000).unwrap(),
+            Load {
+                level: 4,
+                max_vectors: 300,
+                iterations: 13
+            }
+        );
+        assert_eq!(s.observe(12_000, 8_000), None, "at the floor");
+        assert_eq!(s.overruns, 5);
+        for _ in 0..CALM_CYCLES - 1 {
+            assert_eq!(s.observe(1_000, 8_000), None);
+        }
+        assert_eq!(s.observe(1_000, 8_000).unwrap().level, 3);
+        // A busy-but-within-budget cycle interrupts the calm streak.
+        s.observe(5_000, 8_000);
+        assert_eq!(s.load().level, 3);
+    }
+}

@@ -1,0 +1,255 @@
+//! The MAVLink link to the autopilot: one task that owns the transport, keeps it
+//! open (reconnecting with backoff when the port vanishes), turns what arrives into
+//! vehicle state and attitude samples, sends faithd's own HEARTBEAT, and writes what
+//! the commander hands it. Nothing here waits for the pipeline.
+
+pub mod clock_sync;
+pub mod endpoint;
+pub mod telemetry;
+
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use mavlink::dialects::common::{
+    HEARTBEAT_DATA, MavAutopilot, MavMessage, MavModeFlag, MavState, MavType,
+};
+use mavlink::{AsyncMavlinkReader, MavHeader, MavlinkVersion};
+use serde::{Deserialize, Serialize};
+use tokio::sync::{mpsc, watch};
+
+use crate::attitude::AttitudeSample;
+use crate::daemon::clock::DaemonClock;
+use crate::safety::vehicle::VehicleState;
+use clock_sync::ClockSync;
+use endpoint::{BoxedTransport, Endpoint};
+use telemetry::Update;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MavlinkConfig {
+    /// `serial:/dev/ttyAMA0`, `tcp:HOST:PORT`, `udp:BIND:PORT` or `udpout:HOST:PORT`.
+    pub endpoint: String,
+    /// Serial baud rate (iNav's MAVLink port default is 115200).
+    pub baud: u32,
+    /// faithd's own system id: the autopilot's, as a component of the same vehicle.
+    pub system_id: u8,
+    /// faithd's component id (191 = MAV_COMP_ID_ONBOARD_COMPUTER).
+    pub component_id: u8,
+    /// Messages from other systems (a ground station on the same radio) are ignored.
+    pub autopilot_system_id: u8,
+    /// Period of faithd's HEARTBEAT.
+    pub heartbeat_period_us: i64,
+    /// First and longest wait before reopening a lost port.
+    pub reconnect_min_us: i64,
+    pub reconnect_max_us: i64,
+    /// No valid frame for this long and the port is closed and reopened: a USB
+    /// adapter that vanished does not always report an error, it just goes quiet.
+    pub silence_timeout_us: i64,
+}
+
+impl Default for MavlinkConfig {
+    fn default() -> Self {
+        Self {
+            endpoint: "serial:/dev/ttyAMA0".into(),
+            baud: 115_200,
+            system_id: 1,
+            component_id: 191,
+            autopilot_system_id: 1,
+            heartbeat_period_us: 1_000_000,
+            reconnect_min_us: 100_000,
+            reconnect_max_us: 2_000_000,
+            silence_timeout_us: 1_500_000,
+        }
+    }
+}
+
+/// Recent attitude samples on the daemon clock, shared with the pipeline thread.
+#[derive(Debug, Default)]
+pub struct AttitudeLog {
+    samples: VecDeque<AttitudeSample>,
+}
+
+impl AttitudeLog {
+    /// How far back samples are kept.
+    const SPAN_US: i64 = 2_000_000;
+
+    pub fn push(&mut self, sample: AttitudeSample) {
+        if self
+            .samples
+            .back()
+            .is_some_and(|last| sample.t_us < last.t_us)
+        {
+            // Out of order (or the autopilot rebooted): start over rather than
+            // hand derotation an unsorted list.
+            self.samples.clear();
+        }
+        self.samples.push_back(sample);
+        let oldest = sample.t_us - Self::SPAN_US;
+        while self.samples.front().is_some_and(|s| s.t_us < oldest) {
+            self.samples.pop_front();
+        }
+    }
+
+    /// Copies the samples from `from_us` on (and the one before, for interpolation).
+    pub fn copy_since(&self, from_us: i64, out: &mut Vec<AttitudeSample>) {
+        out.clear();
+        let start = self.samples.partition_point(|s| s.t_us < from_us);
+        out.extend(self.samples.range(start.saturating_sub(1)..).copied());
+    }
+
+    pub fn clear(&mut self) {
+        self.samples.clear();
+    }
+}
+
+/// What the link task publishes.
+#[derive(Clone)]
+pub struct LinkOutputs {
+    pub vehicle: watch::Sender<VehicleState>,
+    pub attitude: Arc<Mutex<AttitudeLog>>,
+}
+
+/// Runs forever: open, serve, and on any failure wait and reopen.
+pub async fn run(
+    config: MavlinkConfig,
+    endpoint: Endpoint,
+    clock: DaemonClock,
+    outputs: LinkOutputs,
+    mut outgoing: mpsc::Receiver<MavMessage>,
+) {
+    let min = Duration::from_micros(config.reconnect_min_us.max(1) as u64);
+    let max = Duration::from_micros(config.reconnect_max_us.max(1) as u64);
+    let mut backoff = min;
+    let mut sequence = 0u8;
+    loop {
+        match endpoint.open().await {
+            Ok(transport) => {
+                tracing::info!(%endpoint, "autopilot link up");
+                backoff = min;
+                outputs.vehicle.send_modify(|v| v.link_up = true);
+                let why = serve(
+                    &config,
+                    transport,
+                    &clock,
+                    &outputs,
+                    &mut outgoing,
+                    &mut sequence,
+                )
+                .await;
+                outputs.vehicle.send_modify(VehicleState::link_lost);
+                outputs.attitude.lock().expect("attitude log lock").clear();
+                tracing::warn!(%endpoint, "autopilot link lost: {why}; reopening");
+            }
+            Err(e) => {
+                tracing::warn!(%endpoint, "cannot open autopilot link: {e}; retry in {} ms", backoff.as_millis());
+            }
+        }
+        // Commands queued while the link was down are stale: drop them.
+        while outgoing.try_recv().is_ok() {}
+        tokio::time::sleep(backoff).await;
+        backoff = (backoff * 2).min(max);
+    }
+}
+
+/// Serves one open transport until it fails; returns why.
+async fn serve(
+    config: &MavlinkConfig,
+    transport: BoxedTransport,
+    clock: &DaemonClock,
+    outputs: &LinkOutputs,
+    outgoing: &mut mpsc::Receiver<MavMessage>,
+    sequence: &mut u8,
+) -> String {
+    let (read_half, mut write_half) = tokio::io::split(transport);
+    let mut reader = AsyncMavlinkReader::new(read_half);
+    let mut sync = ClockSync::new(250);
+    let mut heartbeat = tokio::time::interval(Duration::from_micros(
+        config.heartbeat_period_us.max(1000) as u64,
+    ));
+    heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut skipped = 0u64;
+    let silence = Duration::from_micros(config.silence_timeout_us.max(1000) as u64);
+    let mut deadline = tokio::time::Instant::now() + silence;
+    loop {
+        tokio::select! {
+            got = reader.read_any_message::<MavMessage>() => match got {
+                Ok((header, msg)) => {
+                    if header.system_id != u32::from(config.autopilot_system_id) {
+                        continue;
+                    }
+                    deadline = tokio::time::Instant::now() + silence;
+                    receive(&msg, clock.now_us(), &mut sync, outputs);
+                }
+                Err(mavlink::error::MessageReadError::Io(e)) => return format!("read failed: {e}"),
+                Err(mavlink::error::MessageReadError::Parse(e)) => {
+                    // A frame with a valid checksum faithd cannot decode (another
+                    // dialect's message): skip it, count it.
+                    skipped += 1;
+                    tracing::debug!(skipped, "undecodable MAVLink frame skipped: {e}");
+                }
+            },
+            Some(msg) = outgoing.recv() => {
+                if let Err(e) = send(config, &mut write_half, sequence, &msg).await {
+                    return format!("write failed: {e}");
+                }
+            }
+            _ = tokio::time::sleep_until(deadline) => {
+                return format!("nothing from the autopilot for {} ms", silence.as_millis());
+            }
+            _ = heartbeat.tick() => {
+                if let Err(e) = send(config, &mut write_half, sequence, &own_heartbeat()).await {
+                    return format!("write failed: {e}");
+                }
+            }
+        }
+    }
+}
+
+fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOutputs) {
+    let mut update = Update::Ignored;
+    outputs.vehicle.send_if_modified(|v| {
+        update = telemetry::apply(v, sync, msg, rx_us);
+        !matches!(update, Update::Ignored)
+    });
+    if let Update::Attitude(sample) = update {
+        outputs
+            .attitude
+            .lock()
+            .expect("attitude log lock")
+            .push(sample);
+    }
+}
+
+async fn send(
+    config: &MavlinkConfig,
+    writer: &mut (impl tokio::io::AsyncWrite + Unpin),
+    sequence: &mut u8,
+    msg: &MavMessage,
+) -> std::io::Result<()> {
+    let header = MavHeader {
+        system_id: u32::from(config.system_id),
+        component_id: config.component_id,
+        sequence: *sequence,
+    };
+    *sequence = sequence.wrapping_add(1);
+    mavlink::write_versioned_msg_async(writer, MavlinkVersion::V2, header, msg)
+        .await
+        .map_err(|e| match e {
+            mavlink::error::MessageWriteError::Io(io) => io,
+            other => std::io::Error::other(other.to_string()),
+        })?;
+    tokio::io::AsyncWriteExt::flush(writer).await
+}
+
+/// faithd announces itself as an onboard controller, not an autopilot.
+fn own_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}

@@ -1,0 +1,91 @@
+//! Turns the autopilot's MAVLink messages into vehicle state and attitude samples.
+
+use mavlink::dialects::common::{MavMessage, MavModeFlag};
+
+use super::clock_sync::ClockSync;
+use crate::attitude::AttitudeSample;
+use crate::safety::vehicle::{Heartbeat, RcChannels, VehicleState};
+
+/// What one received message changed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Update {
+    Heartbeat,
+    Rc,
+    Attitude(AttitudeSample),
+    /// Not a message faithd uses.
+    Ignored,
+}
+
+/// Applies `msg`, received at daemon time `rx_us`, to `state`.
+pub fn apply(
+    state: &mut VehicleState,
+    sync: &mut ClockSync,
+    msg: &MavMessage,
+    rx_us: i64,
+) -> Update {
+    match msg {
+        MavMessage::HEARTBEAT(hb) => {
+            state.heartbeat = Some(Heartbeat {
+                t_us: rx_us,
+                armed: hb
+                    .base_mode
+                    .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
+                custom_mode: hb.custom_mode,
+            });
+            Update::Heartbeat
+        }
+        MavMessage::RC_CHANNELS(rc) => {
+            state.rc = Some(RcChannels {
+                t_us: rx_us,
+                count: rc.chancount.min(18),
+                values_us: [
+                    rc.chan1_raw,
+                    rc.chan2_raw,
+                    rc.chan3_raw,
+                    rc.chan4_raw,
+                    rc.chan5_raw,
+                    rc.chan6_raw,
+                    rc.chan7_raw,
+                    rc.chan8_raw,
+                    rc.chan9_raw,
+                    rc.chan10_raw,
+                    rc.chan11_raw,
+                    rc.chan12_raw,
+                    rc.chan13_raw,
+                    rc.chan14_raw,
+                    rc.chan15_raw,
+                    rc.chan16_raw,
+                    rc.chan17_raw,
+                    rc.chan18_raw,
+                ],
+            });
+            Update::Rc
+        }
+        MavMessage::ATTITUDE(a) => {
+            let values = [
+                a.roll,
+                a.pitch,
+                a.yaw,
+                a.rollspeed,
+                a.pitchspeed,
+                a.yawspeed,
+            ];
+            if values.iter().any(|v| !v.is_finite()) {
+                // A corrupt sample must not reach derotation; freshness is not renewed.
+                return Update::Ignored;
+            }
+            let t_us = sync.observe(i64::from(a.time_boot_ms) * 1000, rx_us);
+            state.last_attitude_us = Some(rx_us);
+            Update::Attitude(AttitudeSample {
+                t_us,
+                roll_rad: f64::from(a.roll),
+                pitch_rad: f64::from(a.pitch),
+                yaw_rad: f64::from(a.yaw),
+                roll_rate_rad_s: f64::from(a.rollspeed),
+                pitch_rate_rad_s: f64::from(a.pitchspeed),
+                yaw_rate_rad_s: f64::from(a.yawspeed),
+            })
+        }
+        _ => Update::Ignored,
+    }
+}

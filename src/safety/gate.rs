@@ -1,0 +1,301 @@
+//! The pilot's safety gate: may faithd command the vehicle right now?
+//!
+//! DESIGN.md's rule, checked in a fixed order so the log always names the same first
+//! reason for the same situation: the link is up, the pilot's switch is in AUTO, the
+//! vehicle is armed, RC, heartbeat and attitude data are fresh, and the pipeline is
+//! healthy. Pure: the caller passes the time.
+
+use serde::{Deserialize, Serialize};
+
+use super::vehicle::VehicleState;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GateConfig {
+    /// RC channel (1-based, as numbered in iNav's RC_CHANNELS) carrying the pilot's
+    /// manual/auto switch.
+    pub switch_channel: u8,
+    /// The switch is in AUTO while its value lies in this range, microseconds.
+    pub auto_min_us: u16,
+    pub auto_max_us: u16,
+    /// RC_CHANNELS older than this closes the gate.
+    pub rc_stale_us: i64,
+    /// ATTITUDE older than this closes the gate (derotation needs it).
+    pub attitude_stale_us: i64,
+    /// HEARTBEAT older than this closes the gate (armed state unknown).
+    pub heartbeat_stale_us: i64,
+    /// A pipeline that has not finished a cycle for this long is unhealthy.
+    pub pipeline_stale_us: i64,
+}
+
+impl Default for GateConfig {
+    fn default() -> Self {
+        Self {
+            switch_channel: 6,
+            auto_min_us: 1700,
+            auto_max_us: 2100,
+            rc_stale_us: 300_000,
+            attitude_stale_us: 100_000,
+            heartbeat_stale_us: 2_500_000,
+            pipeline_stale_us: 100_000,
+        }
+    }
+}
+
+/// What the pipeline thread last reported about itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PipelineStatus {
+    /// Daemon time of the last finished cycle; `None` before the first.
+    pub last_cycle_us: Option<i64>,
+    /// Why the last cycle cannot be trusted, if it cannot.
+    pub problem: Option<PipelineProblem>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PipelineProblem {
+    /// The event source has delivered nothing for too long (camera gone).
+    NoEvents,
+    /// No attitude samples cover the window: flow cannot be derotated.
+    NoAttitude,
+}
+
+/// The first condition that keeps the gate closed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "kind")]
+pub enum Blocker {
+    LinkDown,
+    NoRc,
+    RcStale {
+        age_us: i64,
+    },
+    /// The switch channel is missing from RC_CHANNELS (fewer channels reported).
+    SwitchMissing {
+        channel: u8,
+    },
+    SwitchNotAuto {
+        value_us: u16,
+    },
+    NoHeartbeat,
+    HeartbeatStale {
+        age_us: i64,
+    },
+    Disarmed,
+    NoAttitude,
+    AttitudeStale {
+        age_us: i64,
+    },
+    PipelineNotRunning,
+    PipelineStale {
+        age_us: i64,
+    },
+    PipelineUnhealthy {
+        problem: PipelineProblem,
+    },
+}
+
+impl std::fmt::Display for Blocker {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Blocker::LinkDown => write!(f, "autopilot link down"),
+            Blocker::NoRc => write!(f, "no RC_CHANNELS received yet"),
+            Blocker::RcStale { age_us } => write!(f, "RC_CHANNELS stale ({} ms)", age_us / 1000),
+            Blocker::SwitchMissing { channel } => {
+                write!(f, "switch channel {channel} not in RC_CHANNELS")
+            }
+            Blocker::SwitchNotAuto { value_us } => {
+                write!(f, "pilot switch not in AUTO ({value_us} us)")
+            }
+            Blocker::NoHeartbeat => write!(f, "no HEARTBEAT received yet"),
+            Blocker::HeartbeatStale { age_us } => {
+                write!(f, "HEARTBEAT stale ({} ms)", age_us / 1000)
+            }
+            Blocker::Disarmed => write!(f, "vehicle disarmed"),
+            Blocker::NoAttitude => write!(f, "no ATTITUDE received yet"),
+            Blocker::AttitudeStale { age_us } => {
+                write!(f, "ATTITUDE stale ({} ms)", age_us / 1000)
+            }
+            Blocker::PipelineNotRunning => write!(f, "pipeline has not run yet"),
+            Blocker::PipelineStale { age_us } => {
+                write!(
+                    f,
+                    "pipeline stalled ({} ms since last cycle)",
+                    age_us / 1000
+                )
+            }
+            Blocker::PipelineUnhealthy { problem } => write!(f, "pipeline unhealthy: {problem:?}"),
+        }
+    }
+}
+
+/// Open, or closed with the first reason.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "state")]
+pub enum GateState {
+    Open,
+    Closed(Blocker),
+}
+
+impl GateState {
+    pub fn is_open(&self) -> bool {
+        matches!(self, GateState::Open)
+    }
+}
+
+/// Evaluates the gate at `now_us` (daemon time).
+pub fn evaluate(
+    config: &GateConfig,
+    vehicle: &VehicleState,
+    pipeline: &PipelineStatus,
+    now_us: i64,
+) -> GateState {
+    match first_blocker(config, vehicle, pipeline, now_us) {
+        Some(b) => GateState::Closed(b),
+        None => GateState::Open,
+    }
+}
+
+fn first_blocker(
+    config: &GateConfig,
+    vehicle: &VehicleState,
+    pipeline: &PipelineStatus,
+    now_us: i64,
+) -> Option<Blocker> {
+    if !vehicle.link_up {
+        return Some(Blocker::LinkDown);
+    }
+    let Some(rc) = &vehicle.rc else {
+        return Some(Blocker::NoRc);
+    };
+    let age_us = now_us - rc.t_us;
+    if age_us > config.rc_stale_us {
+        return Some(Blocker::RcStale { age_us });
+    }
+    let channel = config.switch_channel;
+    let Some(value_us) = rc.channel_us(channel) else {
+        return Some(Blocker::SwitchMissing { channel });
+    };
+    if !(config.auto_min_us..=config.auto_max_us).contains(&value_us) {
+        return Some(Blocker::SwitchNotAuto { value_us });
+    }
+    let Some(hb) = &vehicle.heartbeat else {
+        return Some(Blocker::NoHeartbeat);
+    };
+    let age_us = now_us - hb.t_us;
+    if age_us > config.heartbeat_stale_us {
+        return Some(Blocker::HeartbeatStale { age_us });
+    }
+    if !hb.armed {
+        return Some(Blocker::Disarmed);
+    }
+    let Some(att_us) = vehicle.last_attitude_us else {
+        return Some(Blocker::NoAttitude);
+    };
+    let age_us = now_us - att_us;
+    if age_us > config.attitude_stale_us {
+        return Some(Blocker::AttitudeStale { age_us });
+    }
+    let Some(cycle_us) = pipeline.last_cycle_us else {
+        return Some(Blocker::PipelineNotRunning);
+    };
+    let age_us = now_us - cycle_us;
+    if age_us > config.pipeline_stale_us {
+        return Some(Blocker::PipelineStale { age_us });
+    }
+    if let Some(problem) = pipeline.problem {
+        return Some(Blocker::PipelineUnhealthy { problem });
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::safety::vehicle::{Heartbeat, RcChannels};
+
+    fn all_good(now_us: i64) -> (VehicleState, PipelineStatus) {
+        let mut channels = [1500u16; 18];
+        channels[5] = 1900;
+        let vehicle = VehicleState {
+            link_up: true,
+            heartbeat: Some(Heartbeat {
+                t_us: now_us - 500_000,
+                armed: true,
+                custom_mode: 0,
+            }),
+            rc: Some(RcChannels {
+                t_us: now_us - 50_000,
+                count: 8,
+                values_us: channels,
+            }),
+            last_attitude_us: Some(now_us - 20_000),
+        };
+        let pipeline = PipelineStatus {
+            last_cycle_us: Some(now_us - 10_000),
+            problem: None,
+        };
+        (vehicle, pipeline)
+    }
+
+    #[test]
+    fn opens_only_when_everything_holds() {
+        let cfg = GateConfig::default();
+        let now = 10_000_000;
+        let (v, p) = all_good(now);
+        assert_eq!(evaluate(&cfg, &v, &p, now), GateState::Open);
+    }
+
+    #[test]
+    fn each_condition_alone_closes_it() {
+        let cfg = GateConfig::default();
+        let now = 10_000_000;
+        type Breaker = fn(&mut VehicleState, &mut PipelineStatus);
+        let cases: [(Breaker, &str); 12] = [
+            (|v, _| v.link_up = false, "link_down"),
+            (|v, _| v.rc = None, "no_rc"),
+            (|v, _| v.rc.as_mut().unwrap().t_us -= 400_000, "rc_stale"),
+            (|v, _| v.rc.as_mut().unwrap().count = 4, "switch_missing"),
+            (
+                |v, _| v.rc.as_mut().unwrap().values_us[5] = 1000,
+                "switch_not_auto",
+            ),
+            (|v, _| v.heartbeat = None, "no_heartbeat"),
+            (
+                |v, _| v.heartbeat.as_mut().unwrap().t_us -= 3_000_000,
+                "heartbeat_stale",
+            ),
+            (
+                |v, _| v.heartbeat.as_mut().unwrap().armed = false,
+                "disarmed",
+            ),
+            (|v, _| v.last_attitude_us = None, "no_attitude"),
+            (
+                |v, _| *v.last_attitude_us.as_mut().unwrap() -= 200_000,
+                "attitude_stale",
+            ),
+            (|_, p| p.last_cycle_us = None, "pipeline_not_running"),
+            (
+                |_, p| p.problem = Some(PipelineProblem::NoEvents),
+                "pipeline_unhealthy",
+            ),
+        ];
+        for (breaker, kind) in cases {
+            let (mut v, mut p) = all_good(now);
+            breaker(&mut v, &mut p);
+            let state = evaluate(&cfg, &v, &p, now);
+            let json = serde_json::to_value(state).unwrap();
+            assert_eq!(json["kind"], kind, "{state:?}");
+        }
+    }
+
+    #[test]
+    fn switch_range_is_inclusive() {
+        let cfg = GateConfig::default();
+        let now = 1_000_000;
+        for (value, open) in [(1699, false), (1700, true), (2100, true), (2101, false)] {
+            let (mut v, p) = all_good(now);
+            v.rc.as_mut().unwrap().values_us[5] = value;
+            assert_eq!(evaluate(&cfg, &v, &p, now).is_open(), open, "{value}");
+        }
+    }
+}

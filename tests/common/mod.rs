@@ -1,0 +1,435 @@
+//! A mock iNav autopilot on a real pseudo-terminal, speaking real MAVLink 2 bytes,
+//! and a guard that runs the real `faithd run` binary against it.
+
+#![allow(dead_code)]
+
+use std::io::Read;
+use std::os::fd::OwnedFd;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, AtomicU16, Ordering};
+use std::sync::mpsc;
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use mavlink::dialects::common::*;
+use mavlink::{MavHeader, MavlinkVersion};
+
+/// Values the test flips while the mock runs.
+pub struct Controls {
+    pub switch_us: AtomicU16,
+    pub armed: AtomicBool,
+    pub send_attitude: AtomicBool,
+    pub send_rc: AtomicBool,
+    /// Interleave random garbage and truncated frames with the real ones.
+    pub garbage: AtomicBool,
+}
+
+impl Default for Controls {
+    fn default() -> Self {
+        Self {
+            switch_us: AtomicU16::new(1900),
+            armed: AtomicBool::new(true),
+            send_attitude: AtomicBool::new(true),
+            send_rc: AtomicBool::new(true),
+            garbage: AtomicBool::new(false),
+        }
+    }
+}
+
+/// One message the mock received, with its arrival time.
+#[derive(Clone, Debug)]
+pub struct Received {
+    pub at: Instant,
+    pub header: MavHeader,
+    pub msg: MavMessage,
+}
+
+/// When the mock wrote its last RC_CHANNELS, and with which switch value.
+#[derive(Clone, Copy, Debug)]
+pub struct RcSent {
+    pub at: Instant,
+    pub switch_us: u16,
+}
+
+pub struct MockAutopilot {
+    pub controls: Arc<Controls>,
+    pub received: Arc<Mutex<Vec<Received>>>,
+    pub rc_sent: Arc<Mutex<Vec<RcSent>>>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
+    _slave: OwnedFd,
+    pub slave_path: PathBuf,
+}
+
+fn raw_pty() -> (OwnedFd, OwnedFd, PathBuf) {
+    let pty = nix::pty::openpty(None, None).expect("openpty");
+    let mut t = nix::sys::termios::tcgetattr(&pty.slave).expect("tcgetattr");
+    nix::sys::termios::cfmakeraw(&mut t);
+    nix::sys::termios::tcsetattr(&pty.slave, nix::sys::termios::SetArg::TCSANOW, &t)
+        .expect("tcsetattr");
+    let path = nix::unistd::ttyname(&pty.slave).expect("ttyname");
+    let flags = nix::fcntl::fcntl(&pty.master, nix::fcntl::FcntlArg::F_GETFL).unwrap();
+    let mut flags = nix::fcntl::OFlag::from_bits_truncate(flags);
+    flags.insert(nix::fcntl::OFlag::O_NONBLOCK);
+    nix::fcntl::fcntl(&pty.master, nix::fcntl::FcntlArg::F_SETFL(flags)).unwrap();
+    (pty.master, pty.slave, path)
+}
+
+/// Blocking `Read` over byte chunks from the poll thread; EOF when it stops.
+struct ChunkReader {
+    rx: mpsc::Receiver<Vec<u8>>,
+    pending: Vec<u8>,
+}
+
+impl Read for ChunkReader {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.pending.is_empty() {
+            match self.rx.recv() {
+                Ok(chunk) => self.pending = chunk,
+                Err(_) => return Ok(0),
+            }
+        }
+        let n = buf.len().min(self.pending.len());
+        buf[..n].copy_from_slice(&self.pending[..n]);
+        self.pending.drain(..n);
+        Ok(n)
+    }
+}
+
+fn encode(seq: u8, msg: &MavMessage) -> Vec<u8> {
+    let mut out = Vec::new();
+    let header = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: seq,
+    };
+    mavlink::write_versioned_msg(&mut out, MavlinkVersion::V2, header, msg).unwrap();
+    out
+}
+
+impl MockAutopilot {
+    /// Starts the mock on a new pseudo-terminal; faithd connects to `slave_path`
+    /// (or to a symlink the test points at it).
+    pub fn start(controls: Arc<Controls>) -> Self {
+        let (master, slave, slave_path) = raw_pty();
+        let master = Arc::new(master);
+        let stop = Arc::new(AtomicBool::new(false));
+        let received = Arc::new(Mutex::new(Vec::new()));
+        let rc_sent = Arc::new(Mutex::new(Vec::new()));
+        let (chunk_tx, chunk_rx) = mpsc::channel();
+        let mut threads = Vec::new();
+
+        // Poll + read the master; bytes to the parser thread.
+        {
+            let (master, stop) = (master.clone(), stop.clone());
+            threads.push(std::thread::spawn(move || {
+                let mut buf = [0u8; 4096];
+                while !stop.load(Ordering::Relaxed) {
+                    let mut fds = [nix::poll::PollFd::new(
+                        std::os::fd::AsFd::as_fd(&*master),
+                        nix::poll::PollFlags::POLLIN,
+                    )];
+                    if nix::poll::poll(&mut fds, 10u16).unwrap_or(0) <= 0 {
+                        continue;
+                    }
+                    match nix::unistd::read(&*master, &mut buf) {
+                        Ok(n) if n > 0 => {
+                            if chunk_tx.send(buf[..n].to_vec()).is_err() {
+                                return;
+                            }
+                        }
+                        _ => std::thread::sleep(Duration::from_millis(2)),
+                    }
+                }
+            }));
+        }
+        // Parse what faithd wrote.
+        {
+            let received = received.clone();
+            threads.push(std::thread::spawn(move || {
+                let mut reader = mavlink::MavlinkReader::new(ChunkReader {
+                    rx: chunk_rx,
+                    pending: Vec::new(),
+                });
+                while let Ok((header, msg)) = reader.read_any_message::<MavMessage>() {
+                    received.lock().unwrap().push(Received {
+                        at: Instant::now(),
+                        header,
+                        msg,
+                    });
+                }
+            }));
+        }
+        // Telemetry: ATTITUDE at 50 Hz, RC_CHANNELS at 50 Hz, HEARTBEAT at 5 Hz.
+        {
+            let (master, stop, controls, rc_sent) = (
+                master.clone(),
+                stop.clone(),
+                controls.clone(),
+                rc_sent.clone(),
+            );
+            threads.push(std::thread::spawn(move || {
+                let start = Instant::now();
+                let mut seq = 0u8;
+                let mut rng = 0x2545_f491_4f6c_dd1du64;
+                let mut tick = 0u64;
+                while !stop.load(Ordering::Relaxed) {
+                    let boot_ms = start.elapsed().as_millis() as u32;
+                    let mut out = Vec::new();
+                    if controls.send_attitude.load(Ordering::Relaxed) {
+                        out.extend(encode(seq, &attitude(boot_ms)));
+                        seq = seq.wrapping_add(1);
+                    }
+                    let switch_us = controls.switch_us.load(Ordering::Relaxed);
+                    let send_rc = controls.send_rc.load(Ordering::Relaxed);
+                    if send_rc {
+                        out.extend(encode(seq, &rc_channels(boot_ms, switch_us)));
+                        seq = seq.wrapping_add(1);
+                    }
+                    if tick.is_multiple_of(10) {
+                        out.extend(encode(
+                            seq,
+                            &heartbeat(controls.armed.load(Ordering::Relaxed)),
+                        ));
+                        seq = seq.wrapping_add(1);
+                    }
+                    if controls.garbage.load(Ordering::Relaxed) {
+                        out = with_garbage(out, &mut rng, seq);
+                    }
+                    // A full buffer (nobody reading the port) loses bytes, as a UART would.
+                    let _ = nix::unistd::write(&*master, &out);
+                    if send_rc {
+                        rc_sent.lock().unwrap().push(RcSent {
+                            at: Instant::now(),
+                            switch_us,
+                        });
+                    }
+                    tick += 1;
+                    std::thread::sleep(Duration::from_millis(20));
+                }
+            }));
+        }
+        MockAutopilot {
+            controls,
+            received,
+            rc_sent,
+            stop,
+            threads,
+            _slave: slave,
+            slave_path,
+        }
+    }
+
+    /// Closes the port: faithd sees the device vanish.
+    pub fn unplug(mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            t.join().unwrap();
+        }
+    }
+
+    pub fn overrides(&self) -> Vec<(Instant, RC_CHANNELS_OVERRIDE_DATA)> {
+        self.received
+            .lock()
+            .unwrap()
+            .iter()
+            .filter_map(|r| match &r.msg {
+                MavMessage::RC_CHANNELS_OVERRIDE(o) => Some((r.at, o.clone())),
+                _ => None,
+            })
+            .collect()
+    }
+
+    pub fn heartbeats(&self) -> usize {
+        self.received
+            .lock()
+            .unwrap()
+            .iter()
+            .filter(|r| {
+                matches!(&r.msg, MavMessage::HEARTBEAT(h) if h.mavtype == MavType::MAV_TYPE_ONBOARD_CONTROLLER)
+                    && r.header.component_id == 191
+            })
+            .count()
+    }
+
+    /// Waits until `pred` holds for the received messages, or `timeout` passes.
+    pub fn wait_for(&self, timeout: Duration, pred: impl Fn(&MockAutopilot) -> bool) -> bool {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if pred(self) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        pred(self)
+    }
+}
+
+impl Drop for MockAutopilot {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+fn attitude(boot_ms: u32) -> MavMessage {
+    MavMessage::ATTITUDE(ATTITUDE_DATA {
+        time_boot_ms: boot_ms,
+        roll: 0.0,
+        pitch: 0.0,
+        yaw: 0.3,
+        rollspeed: 0.0,
+        pitchspeed: 0.0,
+        yawspeed: 0.0,
+    })
+}
+
+fn rc_channels(boot_ms: u32, switch_us: u16) -> MavMessage {
+    MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
+        time_boot_ms: boot_ms,
+        chan1_raw: 1500,
+        chan2_raw: 1500,
+        chan3_raw: 1400,
+        chan4_raw: 1500,
+        chan5_raw: 1900,
+        chan6_raw: switch_us,
+        chan7_raw: 1000,
+        chan8_raw: 1000,
+        chancount: 8,
+        rssi: 200,
+        ..Default::default()
+    })
+}
+
+fn heartbeat(armed: bool) -> MavMessage {
+    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
+    if armed {
+        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
+    }
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode,
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+/// Random bytes, a truncated frame and a frame with a broken checksum around `frames`.
+fn with_garbage(frames: Vec<u8>, rng: &mut u64, seq: u8) -> Vec<u8> {
+    let mut next = || {
+        *rng ^= *rng << 13;
+        *rng ^= *rng >> 7;
+        *rng ^= *rng << 17;
+        *rng
+    };
+    let mut out: Vec<u8> = (0..(next() % 40)).map(|_| next() as u8).collect();
+    out.push(0xFD); // a start marker with nothing sensible after it
+    let hb = encode(seq, &heartbeat(false));
+    out.extend_from_slice(&hb[..hb.len() / 2]); // truncated: would say "disarmed"
+    let mut bad = encode(seq, &heartbeat(false));
+    let n = bad.len();
+    bad[n - 1] ^= 0x55; // checksum broken: must be dropped, not believed
+    out.extend(bad);
+    out.extend(frames);
+    out
+}
+
+/// `faithd run` as a child process; killed (SIGTERM, then SIGKILL) on drop.
+pub struct Daemon {
+    child: Child,
+    pub log_path: PathBuf,
+    _dir: TempDir,
+}
+
+pub struct TempDir(pub PathBuf);
+
+impl TempDir {
+    pub fn new(tag: &str) -> Self {
+        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "faithd-test-{tag}-{}-{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+impl Daemon {
+    /// Starts faithd with the shipped defaults plus `extra` TOML, talking to `endpoint`.
+    pub fn start(endpoint: &str, extra: &str) -> Self {
+        let dir = TempDir::new("daemon");
+        let config = dir.0.join("faithd.toml");
+        std::fs::write(
+            &config,
+            format!(
+                "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
+                 [source]\nsim_first_approach_us = 600000\nsim_repeat_us = 4000000\n{extra}"
+            ),
+        )
+        .unwrap();
+        let log_path = dir.0.join("faithd.log");
+        let log = std::fs::File::create(&log_path).unwrap();
+        let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
+            .arg("run")
+            .arg("--config")
+            .arg(&config)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("start faithd");
+        Daemon {
+            child,
+            log_path,
+            _dir: dir,
+        }
+    }
+
+    pub fn log(&self) -> String {
+        std::fs::read_to_string(&self.log_path).unwrap_or_default()
+    }
+
+    pub fn is_running(&mut self) -> bool {
+        self.child.try_wait().unwrap().is_none()
+    }
+
+    /// SIGTERM and wait: faithd releases the roll channel and exits 0.
+    pub fn stop(&mut self) -> std::process::ExitStatus {
+        let _ = nix::sys::signal::kill(
+            nix::unistd::Pid::from_raw(self.child.id() as i32),
+            nix::sys::signal::Signal::SIGTERM,
+        );
+        self.child.wait().unwrap()
+    }
+}
+
+impl Drop for Daemon {
+    fn drop(&mut self) {
+        if self.is_running() {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
+    }
+}
+
+/// Points `link` at `target`, atomically replacing what was there.
+pub fn point_symlink(link: &Path, target: &Path) {
+    let tmp = link.with_extension("new");
+    let _ = std::fs::remove_file(&tmp);
+    std::os::unix::fs::symlink(target, &tmp).unwrap();
+    std::fs::rename(&tmp, link).unwrap();
+}

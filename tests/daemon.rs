@@ -1,0 +1,269 @@
+//! The flight daemon end to end: the real `faithd run` binary, its sim camera flying
+//! at a pole, and a mock iNav on a real pseudo-terminal exchanging MAVLink 2 bytes.
+
+mod common;
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use common::{Controls, Daemon, MockAutopilot, TempDir, point_symlink};
+
+/// The defaults the daemon runs with (config/faithd.toml).
+const SEND_PERIOD: Duration = Duration::from_millis(20);
+const ROLL: Duration = Duration::from_millis(1500);
+/// Scheduling slack for a loaded 2-core test machine, on top of the spec'd bound.
+const SLACK: Duration = Duration::from_millis(15);
+
+fn is_roll(v: u16) -> bool {
+    v == 1200 || v == 1800
+}
+
+fn start(controls: Controls) -> (MockAutopilot, Daemon) {
+    let mock = MockAutopilot::start(Arc::new(controls));
+    let endpoint = format!("serial:{}", mock.slave_path.display());
+    let daemon = Daemon::start(&endpoint, "");
+    (mock, daemon)
+}
+
+fn first_roll(mock: &MockAutopilot) -> Option<Instant> {
+    mock.overrides()
+        .iter()
+        .find(|(_, o)| is_roll(o.chan1_raw))
+        .map(|(t, _)| *t)
+}
+
+#[test]
+fn auto_switch_rolls_for_the_configured_time_then_releases() {
+    let (mock, mut daemon) = start(Controls::default());
+    assert!(
+        mock.wait_for(Duration::from_secs(10), |m| m
+            .overrides()
+            .iter()
+            .any(|(_, o)| o.chan1_raw == 0)),
+        "no roll and release within 10 s; log:\n{}",
+        daemon.log()
+    );
+    let overrides = mock.overrides();
+    let rolls: Vec<_> = overrides
+        .iter()
+        .filter(|(_, o)| is_roll(o.chan1_raw))
+        .collect();
+    let release = overrides.iter().find(|(_, o)| o.chan1_raw == 0).unwrap();
+    let start = rolls[0].0;
+    let lasted = release.0 - start;
+    assert!(
+        lasted + SEND_PERIOD >= ROLL && lasted <= ROLL + SEND_PERIOD + SLACK,
+        "roll lasted {lasted:?}, configured {ROLL:?}"
+    );
+    let gaps = rolls.windows(2).map(|w| w[1].0 - w[0].0);
+    let worst = gaps.max().unwrap();
+    assert!(worst <= 2 * SEND_PERIOD + SLACK, "re-send gap {worst:?}");
+    // Only the roll channel: every other channel says "ignore".
+    for (_, o) in &overrides {
+        assert_eq!(
+            [
+                o.chan2_raw,
+                o.chan3_raw,
+                o.chan4_raw,
+                o.chan6_raw,
+                o.chan8_raw
+            ],
+            [u16::MAX; 5]
+        );
+        assert_eq!(o.target_system, 1);
+    }
+    assert!(
+        rolls
+            .iter()
+            .all(|(_, o)| o.chan1_raw == rolls[0].1.chan1_raw)
+    );
+    assert!(
+        daemon.log().contains("manoeuvre started"),
+        "{}",
+        daemon.log()
+    );
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn manual_switch_means_no_override_is_ever_sent() {
+    let controls = Controls::default();
+    controls.switch_us.store(1000, Ordering::Relaxed);
+    let (mock, mut daemon) = start(controls);
+    // Long enough for the sim approach to make the pipeline decide to roll.
+    let decided = mock.wait_for(Duration::from_secs(8), |_| {
+        daemon.log().contains("decision: roll")
+    });
+    assert!(
+        decided,
+        "the pipeline never wanted to roll:\n{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(mock.heartbeats() > 0, "the link never came up");
+    assert!(
+        mock.overrides().is_empty(),
+        "override sent with the switch in MANUAL: {:?}",
+        mock.overrides()
+    );
+    assert!(daemon.log().contains("pilot switch not in AUTO"));
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn switching_to_manual_mid_manoeuvre_releases_within_one_send_period() {
+    let (mock, mut daemon) = start(Controls::default());
+    assert!(
+        mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()),
+        "no roll: {}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    mock.controls.switch_us.store(1000, Ordering::Relaxed);
+    let flipped = Instant::now();
+    std::thread::sleep(Duration::from_millis(800));
+    // The first RC_CHANNELS frame that carried MANUAL.
+    let manual_at = mock
+        .rc_sent
+        .lock()
+        .unwrap()
+        .iter()
+        .find(|r| r.at >= flipped && r.switch_us == 1000)
+        .unwrap()
+        .at;
+    let overrides = mock.overrides();
+    let release = overrides
+        .iter()
+        .find(|(t, o)| *t >= manual_at && o.chan1_raw == 0)
+        .expect("released");
+    assert!(
+        release.0 - manual_at <= SEND_PERIOD + SLACK,
+        "released {:?} after the switch frame",
+        release.0 - manual_at
+    );
+    assert!(
+        !overrides
+            .iter()
+            .any(|(t, o)| *t > release.0 && is_roll(o.chan1_raw)),
+        "rolled again after the pilot took over"
+    );
+    assert!(daemon.log().contains("manoeuvre cut"), "{}", daemon.log());
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn stale_attitude_or_rc_stops_commands() {
+    for (which, limit) in [("attitude", 100u64), ("rc", 300)] {
+        let (mock, mut daemon) = start(Controls::default());
+        assert!(
+            mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()),
+            "{which}: no roll: {}",
+            daemon.log()
+        );
+        std::thread::sleep(Duration::from_millis(200));
+        let flag = match which {
+            "attitude" => &mock.controls.send_attitude,
+            _ => &mock.controls.send_rc,
+        };
+        flag.store(false, Ordering::Relaxed);
+        let stopped = Instant::now();
+        std::thread::sleep(Duration::from_millis(limit + 400));
+        let overrides = mock.overrides();
+        let release = overrides
+            .iter()
+            .find(|(t, o)| *t >= stopped && o.chan1_raw == 0)
+            .unwrap_or_else(|| panic!("{which}: never released"));
+        let bound = Duration::from_millis(limit) + 2 * SEND_PERIOD + SLACK;
+        assert!(
+            release.0 - stopped <= bound,
+            "{which}: released {:?} after the data stopped",
+            release.0 - stopped
+        );
+        assert!(
+            !overrides
+                .iter()
+                .any(|(t, o)| *t > release.0 && is_roll(o.chan1_raw)),
+            "{which}: rolled on stale data"
+        );
+        assert!(daemon.log().contains("stale"), "{}", daemon.log());
+        daemon.stop();
+    }
+}
+
+#[test]
+fn disarmed_means_no_commands() {
+    let controls = Controls::default();
+    controls.armed.store(false, Ordering::Relaxed);
+    let (mock, daemon) = start(controls);
+    let decided = mock.wait_for(Duration::from_secs(8), |_| {
+        daemon.log().contains("decision: roll")
+    });
+    assert!(decided, "{}", daemon.log());
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(mock.heartbeats() > 0);
+    assert!(mock.overrides().is_empty(), "{:?}", mock.overrides());
+    assert!(daemon.log().contains("vehicle disarmed"));
+}
+
+#[test]
+fn garbage_and_truncated_frames_are_skipped() {
+    let controls = Controls::default();
+    controls.garbage.store(true, Ordering::Relaxed);
+    let (mock, mut daemon) = start(controls);
+    // The garbage includes a broken-checksum and a truncated HEARTBEAT saying
+    // "disarmed": had either been believed, the gate would have stayed shut.
+    assert!(
+        mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()),
+        "no roll through the garbage: {}",
+        daemon.log()
+    );
+    assert!(daemon.is_running());
+    assert!(!daemon.log().contains("panicked"));
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn the_port_vanishing_and_returning_is_survived() {
+    let dir = TempDir::new("replug");
+    let link = dir.0.join("ttyFC");
+    let controls = Arc::new(Controls::default());
+    let mock = MockAutopilot::start(controls.clone());
+    point_symlink(&link, &mock.slave_path);
+    let mut daemon = Daemon::start(&format!("serial:{}", link.display()), "");
+    assert!(
+        mock.wait_for(Duration::from_secs(5), |m| m.heartbeats() > 0),
+        "{}",
+        daemon.log()
+    );
+    mock.unplug();
+    std::thread::sleep(Duration::from_millis(700));
+    assert!(daemon.is_running(), "faithd died with the port");
+    let mock = MockAutopilot::start(controls);
+    point_symlink(&link, &mock.slave_path);
+    // Back: heartbeats flow again and the next approach is avoided.
+    assert!(
+        mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()),
+        "no roll after the port came back: {}",
+        daemon.log()
+    );
+    let log = daemon.log();
+    assert!(log.contains("autopilot link lost"), "{log}");
+    assert!(log.matches("autopilot link up").count() >= 2, "{log}");
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn sigterm_releases_the_roll_channel() {
+    let (mock, mut daemon) = start(Controls::default());
+    assert!(mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()));
+    let stopped = Instant::now();
+    assert!(daemon.stop().success());
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(
+        mock.overrides()
+            .iter()
+            .any(|(t, o)| *t >= stopped && o.chan1_raw == 0),
+        "no release on shutdown"
+    );
+}
