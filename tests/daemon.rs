@@ -267,3 +267,73 @@ fn sigterm_releases_the_roll_channel() {
         "no release on shutdown"
     );
 }
+
+#[test]
+fn msp_sink_sends_the_roll_as_msp_set_raw_rc_and_nothing_over_mavlink() {
+    use faithd::command::msp::{Decoder, MSP_SET_RAW_RC};
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let msp = common::MspPort::start();
+    let mut daemon = Daemon::start(
+        &format!("serial:{}", mock.slave_path.display()),
+        &format!(
+            "[command]\nsink = \"msp\"\nmsp_endpoint = \"serial:{}\"\n",
+            msp.slave_path.display()
+        ),
+    );
+    let roll_ch1 = |bytes: &[(Instant, Vec<u8>)]| {
+        let mut d = Decoder::default();
+        let mut frames = Vec::new();
+        let mut out = Vec::new();
+        for (t, chunk) in bytes {
+            d.push(chunk, &mut frames);
+            for f in frames.drain(..) {
+                assert_eq!(f.direction, b'<');
+                assert_eq!(f.command, MSP_SET_RAW_RC);
+                assert_eq!(f.payload.len(), 16, "8 channels");
+                out.push((*t, u16::from_le_bytes([f.payload[0], f.payload[1]])));
+            }
+        }
+        out
+    };
+    let released = || {
+        let ch1 = roll_ch1(&msp.bytes.lock().unwrap());
+        ch1.iter().any(|(_, v)| is_roll(*v)) && ch1.last().is_some_and(|(_, v)| *v == 1500)
+    };
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !released() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(released(), "no MSP roll and release: {}", daemon.log());
+    let ch1 = roll_ch1(&msp.bytes.lock().unwrap());
+    let start = ch1.iter().find(|(_, v)| is_roll(*v)).unwrap().0;
+    let end = ch1
+        .iter()
+        .find(|(t, v)| *t > start && *v == 1500)
+        .unwrap()
+        .0;
+    assert!(end - start + SEND_PERIOD >= ROLL && end - start <= ROLL + SEND_PERIOD + SLACK);
+    assert!(
+        mock.overrides().is_empty(),
+        "MAVLink override sent with the MSP sink"
+    );
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn an_impossible_budget_sheds_load_logs_overruns_and_still_flies() {
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let mut daemon = Daemon::start(
+        &format!("serial:{}", mock.slave_path.display()),
+        "[daemon]\nbudget_us = 100\n",
+    );
+    assert!(
+        mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()),
+        "no roll under load shedding: {}",
+        daemon.log()
+    );
+    let log = daemon.log();
+    assert!(log.contains("cycle overran its budget"), "{log}");
+    assert!(log.contains("load level changed"), "{log}");
+    assert!(log.contains("max_vectors=300"), "shed to the floor: {log}");
+    assert!(daemon.stop().success());
+}

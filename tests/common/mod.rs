@@ -63,7 +63,7 @@ pub struct MockAutopilot {
     pub slave_path: PathBuf,
 }
 
-fn raw_pty() -> (OwnedFd, OwnedFd, PathBuf) {
+pub fn raw_pty() -> (OwnedFd, OwnedFd, PathBuf) {
     let pty = nix::pty::openpty(None, None).expect("openpty");
     let mut t = nix::sys::termios::tcgetattr(&pty.slave).expect("tcgetattr");
     nix::sys::termios::cfmakeraw(&mut t);
@@ -432,4 +432,61 @@ pub fn point_symlink(link: &Path, target: &Path) {
     let _ = std::fs::remove_file(&tmp);
     std::os::unix::fs::symlink(target, &tmp).unwrap();
     std::fs::rename(&tmp, link).unwrap();
+}
+
+/// A pseudo-terminal standing in for the flight controller's MSP UART: collects
+/// every byte faithd writes to it.
+pub struct MspPort {
+    pub slave_path: PathBuf,
+    pub bytes: Arc<Mutex<Vec<(Instant, Vec<u8>)>>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+    _slave: OwnedFd,
+}
+
+impl MspPort {
+    pub fn start() -> Self {
+        let (master, slave, slave_path) = raw_pty();
+        let bytes = Arc::new(Mutex::new(Vec::new()));
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let (bytes, stop) = (bytes.clone(), stop.clone());
+            std::thread::spawn(move || {
+                let mut buf = [0u8; 4096];
+                while !stop.load(Ordering::Relaxed) {
+                    let mut fds = [nix::poll::PollFd::new(
+                        std::os::fd::AsFd::as_fd(&master),
+                        nix::poll::PollFlags::POLLIN,
+                    )];
+                    if nix::poll::poll(&mut fds, 10u16).unwrap_or(0) <= 0 {
+                        continue;
+                    }
+                    if let Ok(n) = nix::unistd::read(&master, &mut buf)
+                        && n > 0
+                    {
+                        bytes
+                            .lock()
+                            .unwrap()
+                            .push((Instant::now(), buf[..n].to_vec()));
+                    }
+                }
+            })
+        };
+        MspPort {
+            slave_path,
+            bytes,
+            stop,
+            thread: Some(thread),
+            _slave: slave,
+        }
+    }
+}
+
+impl Drop for MspPort {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
 }
