@@ -434,11 +434,14 @@ pub fn point_symlink(link: &Path, target: &Path) {
     std::fs::rename(&tmp, link).unwrap();
 }
 
+/// Chunks of bytes with their arrival times.
+pub type Chunks = Arc<Mutex<Vec<(Instant, Vec<u8>)>>>;
+
 /// A pseudo-terminal standing in for the flight controller's MSP UART: collects
 /// every byte faithd writes to it.
 pub struct MspPort {
     pub slave_path: PathBuf,
-    pub bytes: Arc<Mutex<Vec<(Instant, Vec<u8>)>>>,
+    pub bytes: Chunks,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     _slave: OwnedFd,
