@@ -371,6 +371,11 @@ impl Drop for TempDir {
 impl Daemon {
     /// Starts faithd with the shipped defaults plus `extra` TOML, talking to `endpoint`.
     pub fn start(endpoint: &str, extra: &str) -> Self {
+        Self::start_with_env(endpoint, extra, &[])
+    }
+
+    /// As [`Daemon::start`], with extra environment variables.
+    pub fn start_with_env(endpoint: &str, extra: &str, env: &[(&str, &str)]) -> Self {
         let dir = TempDir::new("daemon");
         let config = dir.0.join("faithd.toml");
         std::fs::write(
@@ -388,6 +393,7 @@ impl Daemon {
             .arg("--config")
             .arg(&config)
             .env("RUST_LOG", "info")
+            .envs(env.iter().copied())
             .stdout(Stdio::null())
             .stderr(log)
             .spawn()
