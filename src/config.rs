@@ -500,6 +500,23 @@ mod tests {
                 "[pipeline.flow]\nmin_speed_px_s = 9000.0\n",
                 "pipeline.flow.max_speed_px_s",
             ),
+            ("[mavlink]\nendpoint = \"COM3\"\n", "mavlink.endpoint"),
+            ("[gate]\nswitch_channel = 0\n", "gate.switch_channel"),
+            (
+                "[gate]\nauto_min_us = 2000\nauto_max_us = 1700\n",
+                "gate.auto_min_us",
+            ),
+            ("[gate]\nattitude_stale_us = 0\n", "gate.attitude_stale_us"),
+            ("[manoeuvre]\nroll_channel = 6\n", "manoeuvre.roll_channel"),
+            (
+                "[manoeuvre]\ndeflection_us = 700\n",
+                "manoeuvre.deflection_us",
+            ),
+            ("[daemon]\nbudget_us = 20000\n", "daemon.budget_us"),
+            (
+                "[command]\nsink = \"msp\"\nmsp_endpoint = \"serial:/dev/ttyAMA0\"\n",
+                "command.msp_endpoint",
+            ),
         ] {
             match FaithdConfig::parse(text) {
                 Err(ParseError::Invalid(inv)) => assert_eq!(inv.key, key, "{text}"),

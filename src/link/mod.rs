@@ -253,3 +253,31 @@ fn own_heartbeat() -> MavMessage {
         mavlink_version: 3,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn at(t_us: i64) -> AttitudeSample {
+        AttitudeSample {
+            t_us,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn attitude_log_keeps_two_seconds_and_the_sample_before_a_window() {
+        let mut log = AttitudeLog::default();
+        for t in (0..=3_000_000).step_by(20_000) {
+            log.push(at(t));
+        }
+        let mut out = Vec::new();
+        log.copy_since(0, &mut out);
+        assert_eq!(out[0].t_us, 1_000_000, "older than 2 s dropped");
+        log.copy_since(2_010_000, &mut out);
+        assert_eq!(out[0].t_us, 2_000_000, "one sample before the window");
+        log.push(at(5));
+        log.copy_since(0, &mut out);
+        assert_eq!(out.len(), 1, "out of order starts over");
+    }
+}

@@ -89,3 +89,57 @@ pub fn apply(
         _ => Update::Ignored,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mavlink::dialects::common::{ATTITUDE_DATA, HEARTBEAT_DATA, RC_CHANNELS_DATA};
+
+    #[test]
+    fn heartbeat_armed_flag_and_rc_count() {
+        let mut state = VehicleState::default();
+        let mut sync = ClockSync::new(10);
+        let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+            custom_mode: 2,
+            ..Default::default()
+        });
+        assert_eq!(apply(&mut state, &mut sync, &hb, 5), Update::Heartbeat);
+        let h = state.heartbeat.unwrap();
+        assert!(h.armed);
+        assert_eq!((h.t_us, h.custom_mode), (5, 2));
+        let rc = MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
+            chancount: 6,
+            chan6_raw: 1900,
+            chan7_raw: 1000,
+            ..Default::default()
+        });
+        apply(&mut state, &mut sync, &rc, 7);
+        let rc = state.rc.unwrap();
+        assert_eq!(rc.channel_us(6), Some(1900));
+        assert_eq!(rc.channel_us(7), None, "beyond chancount");
+        assert_eq!(rc.channel_us(0), None);
+    }
+
+    #[test]
+    fn corrupt_attitude_is_ignored_and_does_not_refresh() {
+        let mut state = VehicleState::default();
+        let mut sync = ClockSync::new(10);
+        let bad = MavMessage::ATTITUDE(ATTITUDE_DATA {
+            rollspeed: f32::NAN,
+            ..Default::default()
+        });
+        assert_eq!(apply(&mut state, &mut sync, &bad, 9), Update::Ignored);
+        assert_eq!(state.last_attitude_us, None);
+        let good = MavMessage::ATTITUDE(ATTITUDE_DATA {
+            time_boot_ms: 100,
+            yawspeed: 0.5,
+            ..Default::default()
+        });
+        let Update::Attitude(s) = apply(&mut state, &mut sync, &good, 1_100_000) else {
+            panic!()
+        };
+        assert_eq!(s.t_us, 1_100_000);
+        assert_eq!(s.yaw_rate_rad_s, 0.5);
+    }
+}
