@@ -58,6 +58,10 @@ fn auto_switch_rolls_for_the_configured_time_then_releases() {
     );
     let gaps = rolls.windows(2).map(|w| w[1].0 - w[0].0);
     let worst = gaps.max().unwrap();
+    eprintln!(
+        "measured: roll lasted {lasted:?}, worst re-send gap {worst:?}, {} frames",
+        rolls.len()
+    );
     assert!(worst <= 2 * SEND_PERIOD + SLACK, "re-send gap {worst:?}");
     // Only the roll channel: every other channel says "ignore".
     for (_, o) in &overrides {
@@ -137,6 +141,10 @@ fn switching_to_manual_mid_manoeuvre_releases_within_one_send_period() {
         .iter()
         .find(|(t, o)| *t >= manual_at && o.chan1_raw == 0)
         .expect("released");
+    eprintln!(
+        "measured: released {:?} after the MANUAL frame",
+        release.0 - manual_at
+    );
     assert!(
         release.0 - manual_at <= SEND_PERIOD + SLACK,
         "released {:?} after the switch frame",
@@ -175,6 +183,10 @@ fn stale_attitude_or_rc_stops_commands() {
             .find(|(t, o)| *t >= stopped && o.chan1_raw == 0)
             .unwrap_or_else(|| panic!("{which}: never released"));
         let bound = Duration::from_millis(limit) + 2 * SEND_PERIOD + SLACK;
+        eprintln!(
+            "measured: {which} stopped, released after {:?}",
+            release.0 - stopped
+        );
         assert!(
             release.0 - stopped <= bound,
             "{which}: released {:?} after the data stopped",

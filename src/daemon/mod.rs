@@ -225,7 +225,9 @@ async fn commander_task(
     sink: &Sink,
 ) {
     let mut commander = Commander::new(config.manoeuvre);
-    let period = Duration::from_micros(config.manoeuvre.resend_period_us.max(1000) as u64);
+    // Woken four times per send period (and at every input change), so a re-send or
+    // a staleness limit is acted on at most a quarter period late.
+    let period = Duration::from_micros((config.manoeuvre.resend_period_us / 4).max(1000) as u64);
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;

@@ -208,10 +208,22 @@ async fn serve(
 
 fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOutputs) {
     let mut update = Update::Ignored;
+    let mut before = None;
     outputs.vehicle.send_if_modified(|v| {
+        before = v.heartbeat.map(|h| (h.armed, h.custom_mode));
         update = telemetry::apply(v, sync, msg, rx_us);
         !matches!(update, Update::Ignored)
     });
+    if let Update::Heartbeat = update {
+        let now = outputs
+            .vehicle
+            .borrow()
+            .heartbeat
+            .map(|h| (h.armed, h.custom_mode));
+        if let Some((armed, mode)) = now.filter(|n| before != Some(*n)) {
+            tracing::info!(armed, flight_mode = mode, "autopilot state");
+        }
+    }
     if let Update::Attitude(sample) = update {
         outputs
             .attitude

@@ -198,11 +198,13 @@ impl MockAutopilot {
                     if controls.garbage.load(Ordering::Relaxed) {
                         out = with_garbage(out, &mut rng, seq);
                     }
+                    // Stamped before the write: faithd may answer before write() returns.
+                    let sent_at = Instant::now();
                     // A full buffer (nobody reading the port) loses bytes, as a UART would.
                     let _ = nix::unistd::write(&*master, &out);
                     if send_rc {
                         rc_sent.lock().unwrap().push(RcSent {
-                            at: Instant::now(),
+                            at: sent_at,
                             switch_us,
                         });
                     }
