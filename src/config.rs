@@ -264,6 +264,16 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         "pipeline.decision.min_foe_support",
         || format!("must be a fraction 0..1, got {}", de.min_foe_support),
     )?;
+    check(
+        (1..=100).contains(&de.confirm_windows),
+        "pipeline.decision.confirm_windows",
+        || format!("must be 1 to 100, got {}", de.confirm_windows),
+    )?;
+    check(
+        de.dodge_margin_px >= 0.0 && de.dodge_margin_px.is_finite(),
+        "pipeline.decision.dodge_margin_px",
+        || format!("must be a non-negative number, got {}", de.dodge_margin_px),
+    )?;
     Ok(())
 }
 

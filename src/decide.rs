@@ -38,6 +38,14 @@ pub struct DecisionConfig {
     pub min_vectors: usize,
     /// The FOE must be supported by at least this fraction of the vectors.
     pub min_foe_support: f64,
+    /// A roll is commanded only when this many consecutive windows call for it: one
+    /// window's evidence (a poorly supported FOE while the flow history fills up) is
+    /// not enough to take the stick from the pilot.
+    pub confirm_windows: u32,
+    /// When the FOE lies this far to one side of the obstacle's centre, pixels, the
+    /// roll goes the short way out (away from the obstacle) instead of toward the
+    /// more open side: a pole slightly left of the path is dodged to the right.
+    pub dodge_margin_px: f64,
 }
 
 impl Default for DecisionConfig {
@@ -49,6 +57,8 @@ impl Default for DecisionConfig {
             box_margin_y_px: 45.0,
             min_vectors: 40,
             min_foe_support: 0.5,
+            confirm_windows: 3,
+            dodge_margin_px: 4.0,
         }
     }
 }
@@ -101,6 +111,12 @@ pub enum Reason {
     ObstacleAhead {
         ttc_s: f64,
         threshold_s: f64,
+    },
+    /// Obstacle ahead and close, but not yet for `confirm_windows` windows in a row.
+    Unconfirmed {
+        ttc_s: f64,
+        windows: u32,
+        needed: u32,
     },
 }
 
@@ -221,7 +237,7 @@ pub fn decide(
         return d;
     };
     d.obstacle = Some(*obstacle);
-    let direction = roll_direction(obstacle, clusters, fx);
+    let direction = roll_direction(obstacle, clusters, fx, config.dodge_margin_px);
     d.escape = Some(*open);
     d.action = Action::Roll {
         direction,
@@ -238,12 +254,23 @@ pub fn decide(
 /// higher mean TTC (weighted by their vector counts). The paper heads toward the
 /// single cluster with the highest mean TTC, which a small far fragment on the wrong
 /// side can win; pooling each side's clusters is steadier. With clusters on one side
-/// only, that side; with none, out of the obstacle's box by the shorter way.
+/// only, that side; with none, out of the obstacle's box by the shorter way. But when
+/// the heading passes clearly to one side of the obstacle's centre, the shorter way
+/// out wins outright: crossing in front of the obstacle to reach open space is how a
+/// near miss becomes a hit.
 fn roll_direction(
     obstacle: &ClusterStats,
     clusters: &[ClusterStats],
     foe_x_px: f64,
+    dodge_margin_px: f64,
 ) -> RollDirection {
+    let off_centre_px = foe_x_px - obstacle.centroid_x_px;
+    if off_centre_px > dodge_margin_px {
+        return RollDirection::Right;
+    }
+    if off_centre_px < -dodge_margin_px {
+        return RollDirection::Left;
+    }
     let (mut left, mut right) = ((0.0, 0usize), (0.0, 0usize));
     for c in clusters.iter().filter(|c| c.id != obstacle.id) {
         let side = if c.centroid_x_px < obstacle.centroid_x_px {

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 use crate::attitude::AttitudeSample;
 use crate::camera::CameraIntrinsics;
 use crate::cluster::{ClusterStats, Dbscan, DbscanConfig, cluster_features, cluster_stats};
-use crate::decide::{Decision, DecisionConfig, decide};
+use crate::decide::{Action, Decision, DecisionConfig, Reason, decide};
 use crate::derotate::{DerotationConfig, DerotationStats, Derotator};
 use crate::event::Event;
 use crate::flow::{FlowConfig, FlowStats, FlowVector, NormalFlow};
@@ -154,6 +154,8 @@ pub struct Pipeline {
     cluster_labels: Vec<Option<u32>>,
     labels: Vec<Option<u32>>,
     clusters: Vec<ClusterStats>,
+    /// Consecutive windows that called for a roll.
+    roll_streak: u32,
 }
 
 impl Pipeline {
@@ -184,6 +186,7 @@ impl Pipeline {
             cluster_labels: Vec::with_capacity(config.max_vectors),
             labels: Vec::with_capacity(2 * config.max_vectors),
             clusters: Vec::new(),
+            roll_streak: 0,
             config,
         }
     }
@@ -208,6 +211,7 @@ impl Pipeline {
     pub fn reset(&mut self) {
         self.flow.reset();
         self.history.clear();
+        self.roll_streak = 0;
     }
 
     /// Runs one window: `events` (time-ordered, all newer than the previous window's)
@@ -253,14 +257,14 @@ impl Pipeline {
         self.cluster();
         timings.cluster_ns = lap(clock);
 
-        let decision = decide(
+        let decision = self.confirm(decide(
             window_end_us,
             &self.config.decision,
             derotation.applied,
             self.history.len(),
             &foe,
             &self.clusters,
-        );
+        ));
         timings.decide_ns = lap(clock);
 
         WindowReport {
@@ -275,6 +279,25 @@ impl Pipeline {
             decision,
             timings,
         }
+    }
+
+    /// Holds a roll back until enough consecutive windows have called for it.
+    fn confirm(&mut self, mut decision: Decision) -> Decision {
+        let Reason::ObstacleAhead { ttc_s, .. } = decision.reason else {
+            self.roll_streak = 0;
+            return decision;
+        };
+        self.roll_streak = self.roll_streak.saturating_add(1);
+        let needed = self.config.decision.confirm_windows;
+        if self.roll_streak < needed {
+            decision.action = Action::Hold;
+            decision.reason = Reason::Unconfirmed {
+                ttc_s,
+                windows: self.roll_streak,
+                needed,
+            };
+        }
+        decision
     }
 
     fn trim_history(&mut self, window_end_us: i64) {

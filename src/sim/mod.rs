@@ -8,6 +8,8 @@
 //! ground-truth FOE come with the events. Everything is seeded.
 
 pub mod dvs;
+pub mod line_camera;
+pub mod quad;
 pub mod scene;
 pub mod scenes;
 pub mod texture;
