@@ -12,6 +12,7 @@
 pub mod attitude;
 pub mod bench;
 pub mod camera;
+pub mod closed_loop;
 pub mod cluster;
 pub mod command;
 pub mod config;

@@ -17,6 +17,146 @@ impl StageClock for MonotonicClock {
     }
 }
 
+fn closed_loop_demo(
+    seed: u64,
+    offset_m: f64,
+    manual: bool,
+    json: bool,
+    plot: &std::path::Path,
+) -> ExitCode {
+    let spec = faithd::closed_loop::FlightSpec {
+        lateral_offset_m: offset_m,
+        pilot_auto: !manual,
+        seed,
+        ..Default::default()
+    };
+    eprintln!(
+        "faithd demo: the daemon flies a simulated quadrotor at a pole ({} m/s, course {:+.2} m from its centre), simulated iNav over MAVLink on loopback UDP; switch {}",
+        spec.speed_m_s,
+        spec.lateral_offset_m,
+        if manual {
+            "stays in MANUAL"
+        } else {
+            "to AUTO at 0.5 s"
+        }
+    );
+    let outcome = match faithd::closed_loop::fly(&spec) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: cannot fly the demo: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(dir) = plot.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    let plotted = faithd::closed_loop::plot::plot_flight(&outcome, plot);
+    if json {
+        let mut value = serde_json::to_value(&outcome).expect("outcome serialises");
+        value.as_object_mut().map(|o| o.remove("path"));
+        println!("{value}");
+    } else {
+        println!("faithd demo: closed-loop flight at a pole");
+        println!(
+            "  course: {} ({:+.2} m from the pole's centre; contact below {:.2} m)",
+            if outcome.collision_course {
+                "collision"
+            } else {
+                "near pass"
+            },
+            spec.lateral_offset_m,
+            faithd::closed_loop::FlightSpec::contact_distance_m()
+        );
+        match (outcome.decision_s, outcome.ttc_at_decision_s) {
+            (Some(t), Some(ttc)) => println!(
+                "  roll decided at {t:.2} s of flight, true time to contact then {ttc:.2} s; first roll frame at the autopilot {:.1} ms after the deciding event",
+                outcome.latency_ms.unwrap_or(f64::NAN)
+            ),
+            _ => println!("  no roll commanded"),
+        }
+        println!(
+            "  result: {}, closest gap between vehicle and pole {:.2} m",
+            if outcome.collided {
+                "HIT the pole"
+            } else {
+                "no contact"
+            },
+            outcome.min_clearance_m
+        );
+        match &plotted {
+            Ok(()) => println!("  trajectory: {}", plot.display()),
+            Err(e) => println!("  trajectory not drawn: {e}"),
+        }
+    }
+    ExitCode::SUCCESS
+}
+
+fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
+    use faithd::closed_loop::experiment;
+    let specs = experiment::plan(runs, seed);
+    let mut outcomes = Vec::with_capacity(runs);
+    for (i, spec) in specs.iter().enumerate() {
+        match faithd::closed_loop::fly(spec) {
+            Ok(o) => {
+                eprintln!(
+                    "[{}/{}] {} offset {:+.2} m, heading {:+.1} deg, {:.1} m/s: {}{}",
+                    i + 1,
+                    runs,
+                    if o.collision_course {
+                        "collision course"
+                    } else {
+                        "near pass       "
+                    },
+                    spec.lateral_offset_m,
+                    spec.heading_deg,
+                    spec.speed_m_s,
+                    if o.collided { "HIT" } else { "clear" },
+                    if o.rolled { ", rolled" } else { "" }
+                );
+                outcomes.push(o);
+            }
+            Err(e) => {
+                eprintln!("error: flight {} failed to run: {e}", i + 1);
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let summary = experiment::summarise(&outcomes, seed);
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&summary).expect("summary serialises")
+        );
+    } else {
+        println!(
+            "faithd sim: {} closed-loop flights, seed {}",
+            summary.runs, summary.seed
+        );
+        println!(
+            "  collision courses {}: avoided {} ({:.1}%)",
+            summary.collision_courses,
+            summary.avoided,
+            100.0 * summary.success_rate
+        );
+        println!(
+            "  near passes {}: false avoidances {} ({:.1}%), contacts {}",
+            summary.near_passes,
+            summary.false_avoidances,
+            100.0 * summary.false_avoidances as f64 / summary.near_passes.max(1) as f64,
+            summary.near_pass_contacts
+        );
+        println!(
+            "  latency, deciding event to first roll frame: p50 {:.1} ms, p99 {:.1} ms",
+            summary.latency_ms_p50, summary.latency_ms_p99
+        );
+        println!(
+            "  true TTC at the roll (median): {:.2} s",
+            summary.ttc_at_decision_s_p50
+        );
+    }
+    ExitCode::SUCCESS
+}
+
 fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
     if window_us <= 0 {
         eprintln!("error: --window-us must be positive, got {window_us}");
@@ -84,15 +224,38 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Fly the built-in demo: a generated approach to a pole through the real pipeline.
+    /// The main job, no hardware: the daemon flies a simulated quadrotor at a pole
+    /// against a simulated iNav over MAVLink, in closed loop and real time.
     Demo {
         /// Seed of the scene and of FAITH's draws.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Decision period, microseconds.
+        /// Where the course passes the pole: metres right (+) or left (-) of its centre.
+        #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+        offset_m: f64,
+        /// Keep the pilot's switch in MANUAL: faithd must not act (the vehicle hits).
+        #[arg(long)]
+        manual: bool,
+        /// Print the outcome as one JSON object.
+        #[arg(long)]
+        json: bool,
+        /// Where to draw the trajectory.
+        #[arg(long, default_value = "out/demo/flight.png")]
+        plot: PathBuf,
+        /// Instead: the pipeline alone, open loop, on generated events (stage timings).
+        #[arg(long)]
+        open_loop: bool,
+        /// Open loop only: decision period, microseconds.
         #[arg(long, default_value_t = 10_000)]
         window_us: i64,
-        /// Print the summary as one JSON object.
+    },
+    /// The closed-loop avoidance experiment: many flights, success and false-avoidance rates.
+    Sim {
+        #[arg(long, default_value_t = 100)]
+        runs: usize,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Print one JSON object.
         #[arg(long)]
         json: bool,
     },
@@ -222,10 +385,17 @@ fn run(path: &std::path::Path) -> ExitCode {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // The experiment flies the daemon a hundred times: only its warnings, by default.
+    let default_filter = match cli.command {
+        Command::Sim { .. } => "warn",
+        // The demo shows the daemon's gate and manoeuvre lines, not every decision.
+        Command::Demo { .. } => "info,faithd::daemon::cycle=warn",
+        _ => "info",
+    };
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter)),
         )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
@@ -233,9 +403,20 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Demo {
             seed,
-            window_us,
+            offset_m,
+            manual,
             json,
-        } => demo(seed, window_us, json),
+            plot,
+            open_loop,
+            window_us,
+        } => {
+            if open_loop {
+                demo(seed, window_us, json)
+            } else {
+                closed_loop_demo(seed, offset_m, manual, json, &plot)
+            }
+        }
+        Command::Sim { runs, seed, json } => sim(runs, seed, json),
         Command::Bench {
             what:
                 BenchCommand::Foe {

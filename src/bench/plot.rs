@@ -18,18 +18,18 @@ static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 #[derive(Debug, thiserror::Error)]
 #[error("cannot draw {path}: {message}")]
 pub struct PlotError {
-    path: String,
-    message: String,
+    pub path: String,
+    pub message: String,
 }
 
-fn fail(path: &Path) -> impl Fn(String) -> PlotError + '_ {
+pub fn fail(path: &Path) -> impl Fn(String) -> PlotError + '_ {
     move |message| PlotError {
         path: path.display().to_string(),
         message,
     }
 }
 
-fn use_bundled_font() {
+pub fn use_bundled_font() {
     static REGISTER: Once = Once::new();
     REGISTER.call_once(|| {
         // The bytes are a valid TrueType font compiled into the binary.

@@ -21,11 +21,18 @@ use crate::link::AttitudeLog;
 use crate::pipeline::{Pipeline, PipelineConfig};
 use crate::safety::gate::{PipelineProblem, PipelineStatus};
 
+/// A roll decision and the newest event of the window that produced it.
+#[derive(Clone, Copy, Debug)]
+pub struct RollDecision {
+    pub decision: Decision,
+    pub last_event_us: i64,
+}
+
 pub struct CycleIo {
     pub events: Receiver<Vec<Event>>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
     pub status: watch::Sender<PipelineStatus>,
-    pub decisions: mpsc::Sender<Decision>,
+    pub decisions: mpsc::Sender<RollDecision>,
 }
 
 /// Runs until the event source hangs up.
@@ -75,6 +82,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             window_end_us - pipeline_config.history_us - 100_000,
             &mut attitude,
         );
+        let last_event_us = pending[..take].last().map_or(window_end_us, |e| e.t_us);
         let report =
             pipeline.process_window(&pending[..take], &attitude, window_end_us, &mut stage_clock);
         let decision = report.decision;
@@ -104,7 +112,10 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
         }
         if matches!(decision.action, Action::Roll { .. }) {
             // Full means the commander has an unread roll already: dropping is fine.
-            let _ = io.decisions.try_send(decision);
+            let _ = io.decisions.try_send(RollDecision {
+                decision,
+                last_event_us,
+            });
         }
 
         let cycle_us = clock.now_us() - started_us;

@@ -18,6 +18,7 @@ pub mod cycle;
 pub mod shed;
 pub mod source;
 
+use std::sync::mpsc::SyncSender;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -26,7 +27,8 @@ use tokio::sync::{mpsc, watch};
 
 use crate::command::{self, SinkKind};
 use crate::config::FaithdConfig;
-use crate::decide::{Action, Decision};
+use crate::decide::Action;
+use crate::event::Event;
 use crate::link::endpoint::Endpoint;
 use crate::link::{self, AttitudeLog, LinkOutputs};
 use crate::safety::gate::{self, GateState, PipelineStatus};
@@ -93,12 +95,56 @@ pub fn run(config: FaithdConfig) -> Result<(), DaemonError> {
         .enable_all()
         .build()
         .map_err(DaemonError::Runtime)?;
-    runtime.block_on(serve(config, endpoint, msp_endpoint));
+    let clock = DaemonClock::start();
+    let (source_config, camera) = (config.source, config.pipeline.camera);
+    let hooks = Hooks {
+        clock,
+        source: Box::new(move |clock, batches| {
+            source::run_sim(source_config, camera, clock, batches)
+        }),
+        observer: None,
+    };
+    runtime.block_on(serve(
+        config,
+        endpoint,
+        msp_endpoint,
+        hooks,
+        shutdown_signal(),
+    ));
     Ok(())
 }
 
-async fn serve(config: FaithdConfig, endpoint: Endpoint, msp_endpoint: Option<Endpoint>) {
-    let clock = DaemonClock::start();
+/// Runs an event source on its own thread until the pipeline hangs up.
+pub type SourceFn = Box<dyn FnOnce(DaemonClock, SyncSender<Vec<Event>>) + Send>;
+
+/// What differs between the service and an in-process harness (`faithd demo`,
+/// `faithd sim`): the clock, the camera, and who watches the manoeuvres.
+pub struct Hooks {
+    pub clock: DaemonClock,
+    pub source: SourceFn,
+    pub observer: Option<mpsc::UnboundedSender<Observation>>,
+}
+
+/// Something a harness may want to measure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Observation {
+    /// A roll began; `last_event_us` is the newest event of the deciding window.
+    ManoeuvreStarted { last_event_us: i64, started_us: i64 },
+}
+
+/// The daemon proper; returns when `shutdown` completes, after releasing the roll.
+pub async fn serve(
+    config: FaithdConfig,
+    endpoint: Endpoint,
+    msp_endpoint: Option<Endpoint>,
+    hooks: Hooks,
+    shutdown: impl std::future::Future<Output = ()>,
+) {
+    let Hooks {
+        clock,
+        source,
+        observer,
+    } = hooks;
     tracing::info!(
         version = env!("CARGO_PKG_VERSION"),
         %endpoint,
@@ -124,11 +170,9 @@ async fn serve(config: FaithdConfig, endpoint: Endpoint, msp_endpoint: Option<En
     let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
     let (decision_tx, decision_rx) = mpsc::channel(4);
     let (batch_tx, batch_rx) = std::sync::mpsc::sync_channel(256);
-    let source_config = config.source;
-    let camera = config.pipeline.camera;
     std::thread::Builder::new()
         .name("faithd-source".into())
-        .spawn(move || source::run_sim(source_config, camera, clock, batch_tx))
+        .spawn(move || source(clock, batch_tx))
         .expect("spawn source thread");
     let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
     std::thread::Builder::new()
@@ -168,10 +212,18 @@ async fn serve(config: FaithdConfig, endpoint: Endpoint, msp_endpoint: Option<En
         status_rx.clone(),
         config.gate.pipeline_stale_us,
     ));
-    let commander = commander_task(&config, clock, vehicle_rx, status_rx, decision_rx, &sink);
+    let commander = commander_task(
+        &config,
+        clock,
+        vehicle_rx,
+        status_rx,
+        decision_rx,
+        &sink,
+        observer,
+    );
     tokio::select! {
         _ = commander => {}
-        _ = shutdown_signal() => tracing::info!("shutdown requested"),
+        _ = shutdown => tracing::info!("shutdown requested"),
     }
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back.
     let release = Command::Release {
@@ -221,8 +273,9 @@ async fn commander_task(
     clock: DaemonClock,
     mut vehicle_rx: watch::Receiver<VehicleState>,
     mut status_rx: watch::Receiver<PipelineStatus>,
-    mut decision_rx: mpsc::Receiver<Decision>,
+    mut decision_rx: mpsc::Receiver<cycle::RollDecision>,
     sink: &Sink,
+    observer: Option<mpsc::UnboundedSender<Observation>>,
 ) {
     let mut commander = Commander::new(config.manoeuvre);
     // Woken four times per send period (and at every input change), so a re-send or
@@ -231,15 +284,15 @@ async fn commander_task(
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;
-    let mut request: Option<(i64, RollRequest)> = None;
+    let mut request: Option<(i64, RollRequest, i64)> = None;
     loop {
         tokio::select! {
             _ = tick.tick() => {}
             Ok(()) = vehicle_rx.changed() => {}
             Ok(()) = status_rx.changed() => {}
-            Some(d) = decision_rx.recv() => {
+            Some(cycle::RollDecision { decision: d, last_event_us }) = decision_rx.recv() => {
                 if let Action::Roll { direction, duration_us } = d.action {
-                    request = Some((d.t_us, RollRequest { direction, duration_us }));
+                    request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us));
                     tracing::debug!("roll requested: {d}");
                 }
             }
@@ -258,14 +311,20 @@ async fn commander_task(
             last_gate = Some(gate);
         }
         // A roll decision is acted on only while it is fresh.
-        let fresh = request.filter(|(t, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
-        let step = commander.step(now_us, &gate, fresh.map(|(_, r)| r));
+        let fresh = request.filter(|(t, _, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
+        let step = commander.step(now_us, &gate, fresh.map(|(_, r, _)| r));
         if let Some(t) = step.transition {
             match t {
                 Transition::Started {
                     direction,
                     duration_us,
                 } => {
+                    if let (Some(obs), Some((_, _, last_event_us))) = (&observer, fresh) {
+                        let _ = obs.send(Observation::ManoeuvreStarted {
+                            last_event_us,
+                            started_us: now_us,
+                        });
+                    }
                     request = None;
                     tracing::info!(
                         ?direction,

@@ -28,7 +28,7 @@ impl Default for QuadConfig {
             speed_m_s: 2.0,
             max_bank_deg: 30.0,
             bank_lag_s: 0.15,
-            drag_per_s: 0.6,
+            drag_per_s: 1.0,
         }
     }
 }

@@ -1,0 +1,139 @@
+//! A simulated iNav on a loopback UDP socket: real MAVLink 2 bytes to and from the
+//! daemon. It reports HEARTBEAT (armed), ATTITUDE at 50 Hz from the simulated
+//! vehicle and RC_CHANNELS at 20 Hz with the pilot's switch, and honours
+//! RC_CHANNELS_OVERRIDE the way iNav's MAVLink receiver does: a channel takes any
+//! value but 0 and 65535, and keeps it until the next one (iNav has no release).
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use mavlink::dialects::common::*;
+use mavlink::{MavHeader, MavlinkVersion};
+use tokio::net::UdpSocket;
+
+use super::physics::Shared;
+use crate::daemon::clock::DaemonClock;
+
+/// The autopilot's boot clock runs on its own origin, as a real one does.
+const BOOT_OFFSET_MS: i64 = 73_000;
+
+pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
+    let mut peer: Option<SocketAddr> = None;
+    let mut tick = tokio::time::interval(Duration::from_millis(20));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut n = 0u64;
+    let mut seq = 0u8;
+    let mut buf = vec![0u8; 4096];
+    loop {
+        tokio::select! {
+            got = socket.recv_from(&mut buf) => {
+                let Ok((len, from)) = got else { continue };
+                let mut reader = mavlink::MavlinkReader::new(&buf[..len]);
+                while let Ok((header, msg)) = reader.read_any_message::<MavMessage>() {
+                    if header.component_id == 191 {
+                        peer = Some(from);
+                    }
+                    if let MavMessage::RC_CHANNELS_OVERRIDE(o) = msg {
+                        receive_override(&shared, &clock, o.chan1_raw);
+                    }
+                }
+            }
+            _ = tick.tick() => {
+                let Some(to) = peer else { continue };
+                let mut out = Vec::new();
+                let (attitude, roll_us, switch_us) = telemetry(&shared, &clock);
+                for msg in [attitude, rc_channels(&clock, roll_us, switch_us)] {
+                    encode(&mut out, &mut seq, &msg);
+                }
+                if n.is_multiple_of(10) {
+                    encode(&mut out, &mut seq, &heartbeat());
+                }
+                n += 1;
+                let _ = socket.send_to(&out, to).await;
+            }
+        }
+    }
+}
+
+fn receive_override(shared: &Shared, clock: &DaemonClock, chan1_raw: u16) {
+    if chan1_raw == 0 || chan1_raw == u16::MAX {
+        return;
+    }
+    shared.roll_us.store(chan1_raw, Ordering::Relaxed);
+    if chan1_raw != 1500 {
+        // The first deflected frame after a manoeuvre started: its arrival time.
+        let _ = shared.first_roll_rx_us.compare_exchange(
+            i64::MIN,
+            clock.now_us(),
+            Ordering::Relaxed,
+            Ordering::Relaxed,
+        );
+    }
+}
+
+fn telemetry(shared: &Shared, clock: &DaemonClock) -> (MavMessage, u16, u16) {
+    let state = *shared.state.lock().expect("state lock");
+    let (yaw, pitch, roll) = state.euler_rad();
+    let rates = state.body_rates_rad_s;
+    let attitude = MavMessage::ATTITUDE(ATTITUDE_DATA {
+        time_boot_ms: boot_ms(clock),
+        roll: roll as f32,
+        pitch: pitch as f32,
+        yaw: yaw as f32,
+        rollspeed: rates.x as f32,
+        pitchspeed: rates.y as f32,
+        yawspeed: rates.z as f32,
+    });
+    let switch_us = if shared.switch_auto.load(Ordering::Relaxed) {
+        1900
+    } else {
+        1000
+    };
+    (attitude, shared.roll_us.load(Ordering::Relaxed), switch_us)
+}
+
+fn boot_ms(clock: &DaemonClock) -> u32 {
+    (clock.now_us() / 1000 + BOOT_OFFSET_MS) as u32
+}
+
+fn rc_channels(clock: &DaemonClock, roll_us: u16, switch_us: u16) -> MavMessage {
+    MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
+        time_boot_ms: boot_ms(clock),
+        chan1_raw: roll_us,
+        chan2_raw: 1500,
+        chan3_raw: 1450,
+        chan4_raw: 1500,
+        chan5_raw: 1900,
+        chan6_raw: switch_us,
+        chan7_raw: 1000,
+        chan8_raw: 1000,
+        chancount: 8,
+        rssi: 255,
+        ..Default::default()
+    })
+}
+
+fn heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_QUADROTOR,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+        base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED
+            | MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
+
+fn encode(out: &mut Vec<u8>, seq: &mut u8, msg: &MavMessage) {
+    let header = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: *seq,
+    };
+    *seq = seq.wrapping_add(1);
+    // Writing to a Vec cannot fail.
+    let _ = mavlink::write_versioned_msg(out, MavlinkVersion::V2, header, msg);
+}

@@ -1,0 +1,161 @@
+//! The simulated world, stepped in real time on the daemon's clock: the vehicle
+//! answers the roll stick the simulated iNav holds, the camera renders events along
+//! the true path, and the flight ends past the last pole or on contact.
+
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU16, Ordering};
+use std::sync::mpsc::SyncSender;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use super::FlightSpec;
+use crate::camera::{CameraIntrinsics, Mounting};
+use crate::daemon::clock::DaemonClock;
+use crate::event::Event;
+use crate::sim::line_camera::{ArenaSpec, LineCamera};
+use crate::sim::quad::{Quad, QuadConfig};
+use crate::sim::trajectory::VehicleState;
+
+/// Half the span of the vehicle: contact when its centre comes this close to a pole's surface.
+pub const VEHICLE_RADIUS_M: f64 = 0.15;
+
+/// State shared by the physics thread and the simulated autopilot.
+pub struct Shared {
+    pub roll_us: AtomicU16,
+    pub switch_auto: AtomicBool,
+    pub state: Mutex<VehicleState>,
+    /// Daemon time the first deflected roll frame arrived; `i64::MIN` until then.
+    pub first_roll_rx_us: AtomicI64,
+    pub done: tokio::sync::Notify,
+    pub log: Mutex<Option<FlightLog>>,
+}
+
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PathPoint {
+    pub t_s: f64,
+    pub x_m: f64,
+    pub y_m: f64,
+    pub bank_deg: f64,
+    pub roll_us: u16,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct FlightLog {
+    pub path: Vec<PathPoint>,
+    pub collided: bool,
+    /// Smallest distance between the vehicle's edge and a pole's surface.
+    pub min_clearance_m: f64,
+}
+
+impl Shared {
+    pub fn new(initial: VehicleState) -> Self {
+        Self {
+            roll_us: AtomicU16::new(1500),
+            switch_auto: AtomicBool::new(false),
+            state: Mutex::new(initial),
+            first_roll_rx_us: AtomicI64::new(i64::MIN),
+            done: tokio::sync::Notify::new(),
+            log: Mutex::new(None),
+        }
+    }
+}
+
+pub fn initial_quad(spec: &FlightSpec) -> Quad {
+    let heading = spec.heading_deg.to_radians();
+    // Start so that the straight path passes the first pole at the lateral offset.
+    let pole = spec.poles[0];
+    let back_m = spec.start_distance_m;
+    let (s, c) = heading.sin_cos();
+    let right = Vector3::new(-s, c, 0.0);
+    let forward = Vector3::new(c, s, 0.0);
+    let at_pole = Vector3::new(pole.0, pole.1, -1.0) + right * spec.lateral_offset_m;
+    let start = at_pole - forward * back_m;
+    Quad::new(
+        QuadConfig {
+            speed_m_s: spec.speed_m_s,
+            ..Default::default()
+        },
+        start,
+        heading,
+    )
+}
+
+/// The physics and camera loop; runs until the flight ends, then signals `done`.
+pub fn run(
+    spec: FlightSpec,
+    shared: Arc<Shared>,
+    clock: DaemonClock,
+    batches: SyncSender<Vec<Event>>,
+) {
+    const STEP_US: i64 = 1000;
+    let mut quad = initial_quad(&spec);
+    let mut arena = ArenaSpec::with_poles(&spec.poles);
+    arena.contrast = spec.contrast;
+    let mut camera = LineCamera::new(
+        CameraIntrinsics::dvs240(),
+        Mounting::forward(),
+        arena.clone(),
+        spec.seed,
+    );
+    camera.noise_rate_hz = spec.noise_rate_hz;
+    let mut log = FlightLog {
+        min_clearance_m: f64::INFINITY,
+        ..Default::default()
+    };
+    let start_us = clock.now_us();
+    let mut t_us = start_us;
+    let mut scratch = Vec::new();
+    camera.advance(&quad.state(), t_us, &mut scratch);
+    let last_pole_x = arena.poles.iter().map(|p| p.x_m).fold(f64::MIN, f64::max);
+    loop {
+        std::thread::sleep(Duration::from_micros(STEP_US as u64));
+        let now_us = clock.now_us();
+        let mut batch = Vec::new();
+        while t_us + STEP_US <= now_us {
+            t_us += STEP_US;
+            let roll_us = shared.roll_us.load(Ordering::Relaxed);
+            quad.step(roll_us, STEP_US as f64 * 1e-6);
+            let state = quad.state();
+            camera.advance(&state, t_us, &mut batch);
+            *shared.state.lock().expect("state lock") = state;
+            let elapsed_s = (t_us - start_us) as f64 * 1e-6;
+            if elapsed_s >= spec.auto_at_s && spec.pilot_auto {
+                shared.switch_auto.store(true, Ordering::Relaxed);
+            }
+            let clearance = arena
+                .poles
+                .iter()
+                .map(|p| {
+                    (quad.position_m.x - p.x_m).hypot(quad.position_m.y - p.y_m)
+                        - p.radius_m
+                        - VEHICLE_RADIUS_M
+                })
+                .fold(f64::INFINITY, f64::min);
+            log.min_clearance_m = log.min_clearance_m.min(clearance);
+            if (t_us - start_us) % 10_000 == 0 {
+                log.path.push(PathPoint {
+                    t_s: elapsed_s,
+                    x_m: quad.position_m.x,
+                    y_m: quad.position_m.y,
+                    bank_deg: quad.bank_rad.to_degrees(),
+                    roll_us,
+                });
+            }
+            let ended = clearance < 0.0
+                || quad.position_m.x > last_pole_x + 1.0
+                || elapsed_s > spec.max_time_s;
+            if ended {
+                log.collided = clearance < 0.0;
+                let _ = batches.try_send(batch);
+                *shared.log.lock().expect("log lock") = Some(log);
+                shared.done.notify_one();
+                return;
+            }
+        }
+        if batches.try_send(batch).is_err() {
+            tracing::warn!("pipeline not keeping up with the simulated camera");
+        }
+    }
+}
