@@ -270,9 +270,34 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         || format!("must be 1 to 100, got {}", de.confirm_windows),
     )?;
     check(
-        de.dodge_margin_px >= 0.0 && de.dodge_margin_px.is_finite(),
-        "pipeline.decision.dodge_margin_px",
-        || format!("must be a non-negative number, got {}", de.dodge_margin_px),
+        de.max_obstacle_width > 0.0 && de.max_obstacle_width <= 1.0,
+        "pipeline.decision.max_obstacle_width",
+        || {
+            format!(
+                "must be a fraction in (0, 1], got {}",
+                de.max_obstacle_width
+            )
+        },
+    )?;
+    check(
+        de.min_obstacle_height_px >= 0.0 && de.min_obstacle_height_px.is_finite(),
+        "pipeline.decision.min_obstacle_height_px",
+        || {
+            format!(
+                "must be a non-negative number, got {}",
+                de.min_obstacle_height_px
+            )
+        },
+    )?;
+    check(
+        de.min_ttc_s >= 0.0 && de.min_ttc_s < de.ttc_threshold_s,
+        "pipeline.decision.min_ttc_s",
+        || {
+            format!(
+                "must be 0 or more and below ttc_threshold_s, got {}",
+                de.min_ttc_s
+            )
+        },
     )?;
     Ok(())
 }

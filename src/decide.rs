@@ -42,10 +42,16 @@ pub struct DecisionConfig {
     /// window's evidence (a poorly supported FOE while the flow history fills up) is
     /// not enough to take the stick from the pilot.
     pub confirm_windows: u32,
-    /// When the FOE lies this far to one side of the obstacle's centre, pixels, the
-    /// roll goes the short way out (away from the obstacle) instead of toward the
-    /// more open side: a pole slightly left of the path is dodged to the right.
-    pub dodge_margin_px: f64,
+    /// A cluster wider than this fraction of the image is the scene around the
+    /// vehicle (walls merged with the floor), not an obstacle a roll can clear.
+    pub max_obstacle_width: f64,
+    /// A cluster less tall than this, pixels, is a stripe of horizontal edges (a
+    /// wall's texture line), not a body standing in the way.
+    pub min_obstacle_height_px: f64,
+    /// Below this TTC the obstacle is already passing: no roll could act in time
+    /// (the attitude alone takes longer to respond), and a near miss at the edge of
+    /// the view is the usual cause.
+    pub min_ttc_s: f64,
 }
 
 impl Default for DecisionConfig {
@@ -58,7 +64,9 @@ impl Default for DecisionConfig {
             min_vectors: 40,
             min_foe_support: 0.5,
             confirm_windows: 3,
-            dodge_margin_px: 4.0,
+            max_obstacle_width: 0.6,
+            min_obstacle_height_px: 12.0,
+            min_ttc_s: 0.25,
         }
     }
 }
@@ -162,6 +170,7 @@ impl std::fmt::Display for Decision {
 pub fn decide(
     t_us: i64,
     config: &DecisionConfig,
+    image_width_px: f64,
     attitude_ok: bool,
     vectors: usize,
     foe: &FoeEstimate,
@@ -212,8 +221,12 @@ pub fn decide(
         return d;
     };
     let (mx, my) = (config.box_margin_x_px, config.box_margin_y_px);
+    let max_width_px = config.max_obstacle_width * image_width_px;
     let holds_foe = |c: &ClusterStats| {
-        fx >= c.min_x_px - mx
+        c.max_x_px - c.min_x_px <= max_width_px
+            && c.max_y_px - c.min_y_px >= config.min_obstacle_height_px
+            && c.mean_ttc_s >= config.min_ttc_s
+            && fx >= c.min_x_px - mx
             && fx <= c.max_x_px + mx
             && fy >= c.min_y_px - my
             && fy <= c.max_y_px + my
@@ -237,7 +250,7 @@ pub fn decide(
         return d;
     };
     d.obstacle = Some(*obstacle);
-    let direction = roll_direction(obstacle, clusters, fx, config.dodge_margin_px);
+    let direction = roll_direction(obstacle, clusters, fx);
     d.escape = Some(*open);
     d.action = Action::Roll {
         direction,
@@ -254,23 +267,12 @@ pub fn decide(
 /// higher mean TTC (weighted by their vector counts). The paper heads toward the
 /// single cluster with the highest mean TTC, which a small far fragment on the wrong
 /// side can win; pooling each side's clusters is steadier. With clusters on one side
-/// only, that side; with none, out of the obstacle's box by the shorter way. But when
-/// the heading passes clearly to one side of the obstacle's centre, the shorter way
-/// out wins outright: crossing in front of the obstacle to reach open space is how a
-/// near miss becomes a hit.
+/// only, that side; with none, out of the obstacle's box by the shorter way.
 fn roll_direction(
     obstacle: &ClusterStats,
     clusters: &[ClusterStats],
     foe_x_px: f64,
-    dodge_margin_px: f64,
 ) -> RollDirection {
-    let off_centre_px = foe_x_px - obstacle.centroid_x_px;
-    if off_centre_px > dodge_margin_px {
-        return RollDirection::Right;
-    }
-    if off_centre_px < -dodge_margin_px {
-        return RollDirection::Left;
-    }
     let (mut left, mut right) = ((0.0, 0usize), (0.0, 0usize));
     for c in clusters.iter().filter(|c| c.id != obstacle.id) {
         let side = if c.centroid_x_px < obstacle.centroid_x_px {
@@ -327,6 +329,7 @@ mod tests {
         decide(
             7,
             &DecisionConfig::default(),
+            240.0,
             true,
             1000,
             &foe_est,
@@ -396,13 +399,22 @@ mod tests {
         let d = decide(
             7,
             &DecisionConfig::default(),
+            240.0,
             false,
             1000,
             &foe(120.0),
             &aside,
         );
         assert_eq!((d.action, d.reason), (Action::Hold, Reason::NoAttitude));
-        let d = decide(7, &DecisionConfig::default(), true, 10, &foe(120.0), &aside);
+        let d = decide(
+            7,
+            &DecisionConfig::default(),
+            240.0,
+            true,
+            10,
+            &foe(120.0),
+            &aside,
+        );
         assert!(matches!(
             d.reason,
             Reason::TooFewVectors { vectors: 10, .. }

@@ -113,6 +113,9 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
                     if o.collided { "HIT" } else { "clear" },
                     if o.rolled { ", rolled" } else { "" }
                 );
+                if let (false, Some(d)) = (o.collision_course, &o.decision) {
+                    eprintln!("    rolled on a near pass: {d}");
+                }
                 outcomes.push(o);
             }
             Err(e) => {

@@ -42,6 +42,10 @@ pub struct PipelineConfig {
     pub ttc: TtcConfig,
     pub cluster: DbscanConfig,
     pub decision: DecisionConfig,
+    /// The FOE acted on is the median of the last this many windows' estimates (1 =
+    /// the window's own). The heading changes slowly next to a 10 ms window, while
+    /// one window's FOE can be pulled 20 px by a passing edge.
+    pub foe_smoothing_windows: usize,
 }
 
 impl Default for PipelineConfig {
@@ -60,6 +64,7 @@ impl Default for PipelineConfig {
             ttc: TtcConfig::default(),
             cluster: DbscanConfig::default(),
             decision: DecisionConfig::default(),
+            foe_smoothing_windows: 8,
         }
     }
 }
@@ -156,6 +161,8 @@ pub struct Pipeline {
     clusters: Vec<ClusterStats>,
     /// Consecutive windows that called for a roll.
     roll_streak: u32,
+    /// The last windows' FOE points, for the median.
+    recent_foe_px: std::collections::VecDeque<(f64, f64)>,
 }
 
 impl Pipeline {
@@ -187,6 +194,7 @@ impl Pipeline {
             labels: Vec::with_capacity(2 * config.max_vectors),
             clusters: Vec::new(),
             roll_streak: 0,
+            recent_foe_px: std::collections::VecDeque::new(),
             config,
         }
     }
@@ -212,6 +220,7 @@ impl Pipeline {
         self.flow.reset();
         self.history.clear();
         self.roll_streak = 0;
+        self.recent_foe_px.clear();
     }
 
     /// Runs one window: `events` (time-ordered, all newer than the previous window's)
@@ -248,7 +257,8 @@ impl Pipeline {
         timings.derotate_ns = lap(clock);
 
         let seed = window_seed(self.config.seed, window_end_us);
-        let foe = self.estimator.as_dyn().estimate(&self.history, seed);
+        let raw_foe = self.estimator.as_dyn().estimate(&self.history, seed);
+        let foe = self.smooth(raw_foe);
         timings.foe_ns = lap(clock);
 
         self.compute_ttc(&foe);
@@ -260,6 +270,7 @@ impl Pipeline {
         let decision = self.confirm(decide(
             window_end_us,
             &self.config.decision,
+            f64::from(self.config.camera.width_px),
             derotation.applied,
             self.history.len(),
             &foe,
@@ -281,10 +292,42 @@ impl Pipeline {
         }
     }
 
+    /// Replaces a point FOE by the median of the recent ones.
+    fn smooth(&mut self, foe: FoeEstimate) -> FoeEstimate {
+        let FoeEstimate::Point {
+            x_px,
+            y_px,
+            support,
+        } = foe
+        else {
+            return foe;
+        };
+        let keep = self.config.foe_smoothing_windows.max(1);
+        if self.recent_foe_px.len() >= keep {
+            self.recent_foe_px.pop_front();
+        }
+        self.recent_foe_px.push_back((x_px, y_px));
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            let n = v.len();
+            if n % 2 == 1 {
+                v[n / 2]
+            } else {
+                0.5 * (v[n / 2 - 1] + v[n / 2])
+            }
+        };
+        FoeEstimate::Point {
+            x_px: median(self.recent_foe_px.iter().map(|p| p.0).collect()),
+            y_px: median(self.recent_foe_px.iter().map(|p| p.1).collect()),
+            support,
+        }
+    }
+
     /// Holds a roll back until enough consecutive windows have called for it.
     fn confirm(&mut self, mut decision: Decision) -> Decision {
         let Reason::ObstacleAhead { ttc_s, .. } = decision.reason else {
             self.roll_streak = 0;
+            self.recent_foe_px.clear();
             return decision;
         };
         self.roll_streak = self.roll_streak.saturating_add(1);

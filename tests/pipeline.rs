@@ -108,10 +108,20 @@ fn pole_ahead_is_avoided_toward_open_space() {
         .iter()
         .filter(|(d, _)| matches!(d.action, Action::Roll { .. }))
         .collect();
+    // Windows that see the pole ahead and close, rolling or confirming that they do.
+    let calls = decisions
+        .iter()
+        .filter(|(d, _)| {
+            matches!(
+                d.reason,
+                Reason::ObstacleAhead { .. } | Reason::Unconfirmed { .. }
+            )
+        })
+        .count();
     assert!(
-        rolls.len() * 2 > decisions.len(),
-        "only {} of {} windows decided to roll: {:#?}",
-        rolls.len(),
+        calls * 2 > decisions.len() && !rolls.is_empty(),
+        "only {} of {} windows called for a roll: {:#?}",
+        calls,
         decisions.len(),
         decisions
             .iter()

@@ -88,6 +88,8 @@ pub struct FlightOutcome {
     /// From the newest event of the deciding window to the first roll frame's arrival
     /// at the autopilot, milliseconds.
     pub latency_ms: Option<f64>,
+    /// The decision that started the roll, with its evidence.
+    pub decision: Option<crate::decide::Decision>,
     pub path: Vec<PathPoint>,
 }
 
@@ -136,11 +138,16 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
         .expect("log lock")
         .take()
         .unwrap_or_default();
+    let mut decision = None;
     let started = obs_rx.try_recv().ok().map(|o| match o {
         Observation::ManoeuvreStarted {
             last_event_us,
             started_us,
-        } => (last_event_us, started_us),
+            decision: d,
+        } => {
+            decision = Some(d);
+            (last_event_us, started_us)
+        }
     });
     let first_rx = shared
         .first_roll_rx_us
@@ -167,6 +174,7 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
         decision_s,
         ttc_at_decision_s,
         latency_ms,
+        decision,
         path: log.path,
     })
 }

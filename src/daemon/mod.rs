@@ -129,7 +129,11 @@ pub struct Hooks {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Observation {
     /// A roll began; `last_event_us` is the newest event of the deciding window.
-    ManoeuvreStarted { last_event_us: i64, started_us: i64 },
+    ManoeuvreStarted {
+        last_event_us: i64,
+        started_us: i64,
+        decision: crate::decide::Decision,
+    },
 }
 
 /// The daemon proper; returns when `shutdown` completes, after releasing the roll.
@@ -284,7 +288,7 @@ async fn commander_task(
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;
-    let mut request: Option<(i64, RollRequest, i64)> = None;
+    let mut request: Option<(i64, RollRequest, i64, crate::decide::Decision)> = None;
     loop {
         tokio::select! {
             _ = tick.tick() => {}
@@ -292,7 +296,7 @@ async fn commander_task(
             Ok(()) = status_rx.changed() => {}
             Some(cycle::RollDecision { decision: d, last_event_us }) = decision_rx.recv() => {
                 if let Action::Roll { direction, duration_us } = d.action {
-                    request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us));
+                    request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us, d));
                     tracing::debug!("roll requested: {d}");
                 }
             }
@@ -311,18 +315,19 @@ async fn commander_task(
             last_gate = Some(gate);
         }
         // A roll decision is acted on only while it is fresh.
-        let fresh = request.filter(|(t, _, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
-        let step = commander.step(now_us, &gate, fresh.map(|(_, r, _)| r));
+        let fresh = request.filter(|(t, _, _, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
+        let step = commander.step(now_us, &gate, fresh.map(|(_, r, _, _)| r));
         if let Some(t) = step.transition {
             match t {
                 Transition::Started {
                     direction,
                     duration_us,
                 } => {
-                    if let (Some(obs), Some((_, _, last_event_us))) = (&observer, fresh) {
+                    if let (Some(obs), Some((_, _, last_event_us, decision))) = (&observer, fresh) {
                         let _ = obs.send(Observation::ManoeuvreStarted {
                             last_event_us,
                             started_us: now_us,
+                            decision,
                         });
                     }
                     request = None;
