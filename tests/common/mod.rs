@@ -24,6 +24,9 @@ pub struct Controls {
     pub send_rc: AtomicBool,
     /// Interleave random garbage and truncated frames with the real ones.
     pub garbage: AtomicBool,
+    /// Roll channel as iNav's MAVLink receiver holds it: the last override value
+    /// other than 0 and 65535 (echoed in RC_CHANNELS chan1).
+    pub roll_us: AtomicU16,
 }
 
 impl Default for Controls {
@@ -34,6 +37,7 @@ impl Default for Controls {
             send_attitude: AtomicBool::new(true),
             send_rc: AtomicBool::new(true),
             garbage: AtomicBool::new(false),
+            roll_us: AtomicU16::new(1500),
         }
     }
 }
@@ -148,12 +152,19 @@ impl MockAutopilot {
         // Parse what faithd wrote.
         {
             let received = received.clone();
+            let controls = controls.clone();
             threads.push(std::thread::spawn(move || {
                 let mut reader = mavlink::MavlinkReader::new(ChunkReader {
                     rx: chunk_rx,
                     pending: Vec::new(),
                 });
                 while let Ok((header, msg)) = reader.read_any_message::<MavMessage>() {
+                    if let MavMessage::RC_CHANNELS_OVERRIDE(o) = &msg
+                        && o.chan1_raw != 0
+                        && o.chan1_raw != u16::MAX
+                    {
+                        controls.roll_us.store(o.chan1_raw, Ordering::Relaxed);
+                    }
                     received.lock().unwrap().push(Received {
                         at: Instant::now(),
                         header,
@@ -185,7 +196,8 @@ impl MockAutopilot {
                     let switch_us = controls.switch_us.load(Ordering::Relaxed);
                     let send_rc = controls.send_rc.load(Ordering::Relaxed);
                     if send_rc {
-                        out.extend(encode(seq, &rc_channels(boot_ms, switch_us)));
+                        let roll_us = controls.roll_us.load(Ordering::Relaxed);
+                        out.extend(encode(seq, &rc_channels(boot_ms, switch_us, roll_us)));
                         seq = seq.wrapping_add(1);
                     }
                     if tick.is_multiple_of(10) {
@@ -290,10 +302,10 @@ fn attitude(boot_ms: u32) -> MavMessage {
     })
 }
 
-fn rc_channels(boot_ms: u32, switch_us: u16) -> MavMessage {
+fn rc_channels(boot_ms: u32, switch_us: u16, roll_us: u16) -> MavMessage {
     MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
         time_boot_ms: boot_ms,
-        chan1_raw: 1500,
+        chan1_raw: roll_us,
         chan2_raw: 1500,
         chan3_raw: 1400,
         chan4_raw: 1500,
