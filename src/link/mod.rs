@@ -6,6 +6,7 @@
 pub mod clock_sync;
 pub mod endpoint;
 pub mod telemetry;
+pub mod tlog;
 
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
