@@ -245,7 +245,11 @@ mod tests {
                     seed ^= seed << 13;
                     seed ^= seed >> 7;
                     seed ^= seed << 17;
-                    if seed % 7 == 0 { 0xFD } else { seed as u8 }
+                    if seed.is_multiple_of(7) {
+                        0xFD
+                    } else {
+                        seed as u8
+                    }
                 })
                 .collect();
             let mut r = TlogReader::new(&bytes[..]);
