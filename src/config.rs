@@ -160,6 +160,11 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
     check(p.max_vectors >= 1, "pipeline.max_vectors", || {
         "must be at least 1".into()
     })?;
+    check(
+        (1..=100).contains(&p.foe_smoothing_windows),
+        "pipeline.foe_smoothing_windows",
+        || format!("must be 1 to 100, got {}", p.foe_smoothing_windows),
+    )?;
 
     let f = &p.flow;
     check(
