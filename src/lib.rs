@@ -22,5 +22,6 @@ pub mod flow;
 pub mod foe;
 pub mod pipeline;
 pub mod sim;
+pub mod source;
 pub mod synth;
 pub mod ttc;
