@@ -27,5 +27,6 @@ pub mod link;
 pub mod pipeline;
 pub mod safety;
 pub mod sim;
+pub mod source;
 pub mod synth;
 pub mod ttc;
