@@ -25,6 +25,7 @@ pub mod flow;
 pub mod foe;
 pub mod link;
 pub mod pipeline;
+pub mod replay;
 pub mod safety;
 pub mod sim;
 pub mod source;

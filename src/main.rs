@@ -273,6 +273,30 @@ enum Command {
         #[arg(long, default_value = "/etc/faithd/faithd.toml")]
         config: PathBuf,
     },
+    /// Recorded events (and attitude) through the same pipeline: one line per window.
+    Replay {
+        /// Event file: AEDAT 4.0, 3.1, 2.0 or the datasets' text format.
+        #[arg(long)]
+        events: PathBuf,
+        /// Attitude from a MAVLink telemetry log (ATTITUDE messages).
+        #[arg(long, conflicts_with = "imu")]
+        mavlink: Option<PathBuf>,
+        /// Added to ATTITUDE's time_boot_ms (in us) to reach the events' clock.
+        #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+        attitude_offset_us: i64,
+        /// Attitude from a text dataset's imu.txt.
+        #[arg(long)]
+        imu: Option<PathBuf>,
+        /// Pipeline settings (default: the built-in defaults).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// Window (decision period), microseconds; default daemon.period_us.
+        #[arg(long)]
+        window_us: Option<i64>,
+        /// One JSON object per window.
+        #[arg(long)]
+        json: bool,
+    },
     /// Validate a config file: prints `ok` or the key and the reason it is refused.
     CheckConfig {
         /// Path to faithd.toml.
@@ -369,6 +393,51 @@ fn write_bench_figures(
     Ok(())
 }
 
+fn replay(
+    events: &std::path::Path,
+    mavlink: Option<&std::path::Path>,
+    attitude_offset_us: i64,
+    imu: Option<&std::path::Path>,
+    config: Option<&std::path::Path>,
+    window_us: Option<i64>,
+    json: bool,
+) -> ExitCode {
+    use faithd::replay::AttitudeInput;
+    let config = match config.map(FaithdConfig::load).transpose() {
+        Ok(c) => c.unwrap_or_default(),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let window_us = window_us.unwrap_or(config.daemon.period_us);
+    if window_us <= 0 {
+        eprintln!("error: --window-us must be positive, got {window_us}");
+        return ExitCode::from(2);
+    }
+    let attitude = match (mavlink, imu) {
+        (Some(path), _) => AttitudeInput::Tlog {
+            path,
+            offset_us: attitude_offset_us,
+        },
+        (None, Some(path)) => AttitudeInput::Imu(path),
+        (None, None) => {
+            eprintln!("note: no --mavlink or --imu: derotation is off for this replay");
+            AttitudeInput::None
+        }
+    };
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    match faithd::replay::replay(events, attitude, config.pipeline, window_us, json, &mut out) {
+        Ok(_) => ExitCode::SUCCESS,
+        Err(e) => {
+            let _ = std::io::Write::flush(&mut out);
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
 fn run(path: &std::path::Path) -> ExitCode {
     let config = match FaithdConfig::load(path) {
         Ok(c) => c,
@@ -432,6 +501,23 @@ fn main() -> ExitCode {
                 },
         } => bench_foe(trajectories, seed, json, threads, &plot_dir, rotation),
         Command::Run { config } => run(&config),
+        Command::Replay {
+            events,
+            mavlink,
+            attitude_offset_us,
+            imu,
+            config,
+            window_us,
+            json,
+        } => replay(
+            &events,
+            mavlink.as_deref(),
+            attitude_offset_us,
+            imu.as_deref(),
+            config.as_deref(),
+            window_us,
+            json,
+        ),
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());
