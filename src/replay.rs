@@ -195,7 +195,8 @@ pub fn replay(
         loop {
             let end_us = window_end_us.expect("set above");
             let data_passed = pending.last().is_some_and(|e| e.t_us >= end_us);
-            if pending.is_empty() || !(data_passed || !more) {
+            // Wait for more data unless it already passed the window end or has ended.
+            if pending.is_empty() || (!data_passed && more) {
                 break;
             }
             let take = pending.partition_point(|e| e.t_us < end_us);
