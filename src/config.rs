@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::command::CommandConfig;
 use crate::daemon::DaemonConfig;
+use crate::daemon::record::RecordConfig;
 use crate::daemon::source::SourceConfig;
 use crate::link::MavlinkConfig;
 use crate::link::endpoint::Endpoint;
@@ -27,6 +28,7 @@ pub struct FaithdConfig {
     pub command: CommandConfig,
     pub daemon: DaemonConfig,
     pub source: SourceConfig,
+    pub record: RecordConfig,
 }
 
 #[derive(Debug, thiserror::Error)]

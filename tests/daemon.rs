@@ -349,3 +349,73 @@ fn an_impossible_budget_sheds_load_logs_overruns_and_still_flies() {
     assert!(log.contains("max_vectors=300"), "shed to the floor: {log}");
     assert!(daemon.stop().success());
 }
+
+#[test]
+fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
+    use faithd::link::tlog::TlogReader;
+    use mavlink::dialects::common::MavMessage;
+    let (mock, mut daemon) = start(Controls::default());
+    assert!(mock.wait_for(Duration::from_secs(10), |m| first_roll(m).is_some()));
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(daemon.stop().success());
+    let dir = daemon.flights_dir();
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    let aedat = names
+        .iter()
+        .find(|p| p.extension().unwrap() == "aedat4")
+        .expect("event recording");
+    let tlog = names
+        .iter()
+        .find(|p| p.extension().unwrap() == "tlog")
+        .expect("mavlink recording");
+
+    let mut reader = faithd::source::open_events(aedat).unwrap();
+    let events = faithd::source::read_all(&mut reader).unwrap();
+    assert!(events.len() > 10_000, "{} events recorded", events.len());
+
+    let mut r = TlogReader::new(std::fs::File::open(tlog).unwrap());
+    let (mut attitude_in, mut overrides_out, mut own_heartbeats) = (0, 0, 0);
+    while let Some(rec) = r.next_record().unwrap() {
+        match rec.message {
+            Some(MavMessage::ATTITUDE(_))
+                if rec.header.system_id == 1 && rec.header.component_id == 1 =>
+            {
+                attitude_in += 1
+            }
+            Some(MavMessage::RC_CHANNELS_OVERRIDE(_)) if rec.header.component_id == 191 => {
+                overrides_out += 1
+            }
+            Some(MavMessage::HEARTBEAT(_)) if rec.header.component_id == 191 => own_heartbeats += 1,
+            _ => {}
+        }
+    }
+    assert!(attitude_in > 50, "{attitude_in} ATTITUDE recorded");
+    assert!(
+        overrides_out >= mock.overrides().len().min(70),
+        "{overrides_out} overrides recorded"
+    );
+    assert!(own_heartbeats >= 1);
+
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["replay", "--json", "--events"])
+        .arg(aedat)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rolls = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.contains("\"kind\":\"roll\""))
+        .count();
+    assert!(
+        rolls > 0,
+        "the recorded approach replays to a roll decision"
+    );
+}

@@ -113,6 +113,8 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     config.mavlink.endpoint = format!("udpout:127.0.0.1:{port}");
     // iNav's MAVLink receiver has no release value: faithd sends the centre.
     config.command.release_us = config.manoeuvre.neutral_us;
+    // Simulated flights are not recorded.
+    config.record.enabled = false;
     let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud)
         .map_err(std::io::Error::other)?;
     let (obs_tx, mut obs_rx) = mpsc::unbounded_channel();

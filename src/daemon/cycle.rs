@@ -33,6 +33,7 @@ pub struct CycleIo {
     pub attitude: Arc<Mutex<AttitudeLog>>,
     pub status: watch::Sender<PipelineStatus>,
     pub decisions: mpsc::Sender<RollDecision>,
+    pub recorder: Option<super::record::Recorder>,
 }
 
 /// Runs until the event source hangs up.
@@ -66,6 +67,9 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             {
                 Ok(batch) => {
                     last_batch_us = clock.now_us();
+                    if let (Some(r), false) = (&io.recorder, batch.is_empty()) {
+                        r.send(super::record::Item::Events(batch.clone()));
+                    }
                     pending.extend(batch);
                 }
                 Err(RecvTimeoutError::Timeout) => break,

@@ -15,6 +15,7 @@
 
 pub mod clock;
 pub mod cycle;
+pub mod record;
 pub mod shed;
 pub mod source;
 
@@ -157,6 +158,7 @@ pub async fn serve(
         "faithd starting"
     );
 
+    let recorder = record::start(&config.record);
     let (vehicle_tx, vehicle_rx) = watch::channel(VehicleState::default());
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
     let (mav_out_tx, mav_out_rx) = mpsc::channel(64);
@@ -167,6 +169,7 @@ pub async fn serve(
         LinkOutputs {
             vehicle: vehicle_tx,
             attitude: attitude.clone(),
+            recorder: recorder.clone(),
         },
         mav_out_rx,
     ));
@@ -179,6 +182,7 @@ pub async fn serve(
         .spawn(move || source(clock, batch_tx))
         .expect("spawn source thread");
     let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
+    let cycle_recorder = recorder.clone();
     std::thread::Builder::new()
         .name("faithd-pipeline".into())
         .spawn(move || {
@@ -191,6 +195,7 @@ pub async fn serve(
                     attitude,
                     status: status_tx,
                     decisions: decision_tx,
+                    recorder: cycle_recorder,
                 },
             )
         })
@@ -235,6 +240,9 @@ pub async fn serve(
     };
     sink.send(release, &config).await;
     tokio::time::sleep(Duration::from_millis(50)).await;
+    if let Some(r) = &recorder {
+        r.finish();
+    }
     tracing::info!("faithd stopped; roll channel released");
 }
 

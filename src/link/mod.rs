@@ -109,6 +109,21 @@ impl AttitudeLog {
 pub struct LinkOutputs {
     pub vehicle: watch::Sender<VehicleState>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
+    /// Every frame in and out goes to the flight recording.
+    pub recorder: Option<crate::daemon::record::Recorder>,
+}
+
+fn record(outputs: &LinkOutputs, header: MavHeader, msg: &MavMessage) {
+    if let Some(r) = &outputs.recorder {
+        let t_unix_us = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_micros() as u64);
+        r.send(crate::daemon::record::Item::Mavlink {
+            t_unix_us,
+            header,
+            msg: msg.clone(),
+        });
+    }
 }
 
 /// Runs forever: open, serve, and on any failure wait and reopen.
@@ -180,6 +195,7 @@ async fn serve(
                         continue;
                     }
                     deadline = tokio::time::Instant::now() + silence;
+                    record(outputs, header, &msg);
                     receive(&msg, clock.now_us(), &mut sync, outputs);
                 }
                 Err(mavlink::error::MessageReadError::Io(e)) => return format!("read failed: {e}"),
@@ -191,7 +207,7 @@ async fn serve(
                 }
             },
             Some(msg) = outgoing.recv() => {
-                if let Err(e) = send(config, &mut write_half, sequence, &msg).await {
+                if let Err(e) = send(config, &mut write_half, sequence, &msg, outputs).await {
                     return format!("write failed: {e}");
                 }
             }
@@ -199,7 +215,7 @@ async fn serve(
                 return format!("nothing from the autopilot for {} ms", silence.as_millis());
             }
             _ = heartbeat.tick() => {
-                if let Err(e) = send(config, &mut write_half, sequence, &own_heartbeat()).await {
+                if let Err(e) = send(config, &mut write_half, sequence, &own_heartbeat(), outputs).await {
                     return format!("write failed: {e}");
                 }
             }
@@ -239,12 +255,14 @@ async fn send(
     writer: &mut (impl tokio::io::AsyncWrite + Unpin),
     sequence: &mut u8,
     msg: &MavMessage,
+    outputs: &LinkOutputs,
 ) -> std::io::Result<()> {
     let header = MavHeader {
         system_id: u32::from(config.system_id),
         component_id: config.component_id,
         sequence: *sequence,
     };
+    record(outputs, header, msg);
     *sequence = sequence.wrapping_add(1);
     mavlink::write_versioned_msg_async(writer, MavlinkVersion::V2, header, msg)
         .await

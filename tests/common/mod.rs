@@ -396,7 +396,9 @@ impl Daemon {
             &config,
             format!(
                 "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
-                 [source]\nsim_first_approach_us = 600000\nsim_repeat_us = 4000000\n{extra}"
+                 [source]\nsim_first_approach_us = 600000\nsim_repeat_us = 4000000\n\
+                 [record]\ndir = \"{}\"\n{extra}",
+                dir.0.join("flights").display()
             ),
         )
         .unwrap();
@@ -417,6 +419,11 @@ impl Daemon {
             log_path,
             _dir: dir,
         }
+    }
+
+    /// Where this daemon records its flights.
+    pub fn flights_dir(&self) -> PathBuf {
+        self._dir.0.join("flights")
     }
 
     pub fn log(&self) -> String {
