@@ -45,11 +45,14 @@ pub enum Item {
     Events(Vec<Event>),
     /// Close the files properly (AEDAT 4 packet index) and acknowledge.
     Finish(std::sync::mpsc::Sender<()>),
-    Mavlink {
-        t_unix_us: u64,
-        header: MavHeader,
-        msg: MavMessage,
-    },
+    /// Boxed: a MAVLink message is large next to the other variants.
+    Mavlink(Box<MavlinkRecord>),
+}
+
+pub struct MavlinkRecord {
+    pub t_unix_us: u64,
+    pub header: MavHeader,
+    pub msg: MavMessage,
 }
 
 /// The producers' end: cloneable, never blocks.
@@ -174,11 +177,12 @@ fn write(config: &RecordConfig, stem: &str, files: &mut Files, item: Item) -> Re
                 .write_events(&events)
                 .map_err(|e| e.to_string())
         }
-        Item::Mavlink {
-            t_unix_us,
-            header,
-            msg,
-        } => {
+        Item::Mavlink(record) => {
+            let MavlinkRecord {
+                t_unix_us,
+                header,
+                msg,
+            } = *record;
             if files.tlog.is_none() || files.tlog_bytes >= config.max_file_bytes {
                 if let Some(mut t) = files.tlog.take() {
                     t.flush().map_err(|e| e.to_string())?;

@@ -118,11 +118,13 @@ fn record(outputs: &LinkOutputs, header: MavHeader, msg: &MavMessage) {
         let t_unix_us = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_micros() as u64);
-        r.send(crate::daemon::record::Item::Mavlink {
-            t_unix_us,
-            header,
-            msg: msg.clone(),
-        });
+        r.send(crate::daemon::record::Item::Mavlink(Box::new(
+            crate::daemon::record::MavlinkRecord {
+                t_unix_us,
+                header,
+                msg: msg.clone(),
+            },
+        )));
     }
 }
 
