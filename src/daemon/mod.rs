@@ -97,12 +97,32 @@ pub fn run(config: FaithdConfig) -> Result<(), DaemonError> {
         .build()
         .map_err(DaemonError::Runtime)?;
     let clock = DaemonClock::start();
-    let (source_config, camera) = (config.source, config.pipeline.camera);
+    let (source_config, camera) = (config.source.clone(), config.pipeline.camera);
+    let source: SourceFn = match source_config.kind {
+        source::SourceKind::Sim => {
+            Box::new(move |clock, batches| source::run_sim(source_config, camera, clock, batches))
+        }
+        #[cfg(feature = "caer")]
+        source::SourceKind::Caer => Box::new(move |clock, batches| {
+            crate::source::caer::run(
+                source_config.caer_settings,
+                clock,
+                batches,
+                Duration::from_secs(2),
+            )
+        }),
+        #[cfg(not(feature = "caer"))]
+        source::SourceKind::Caer => {
+            return Err(DaemonError::Config {
+                key: "source.kind",
+                reason: "this faithd was built without libcaer (cargo build --features caer)"
+                    .into(),
+            });
+        }
+    };
     let hooks = Hooks {
         clock,
-        source: Box::new(move |clock, batches| {
-            source::run_sim(source_config, camera, clock, batches)
-        }),
+        source,
         observer: None,
     };
     runtime.block_on(serve(

@@ -18,12 +18,17 @@ pub enum SourceKind {
     /// Generated approaches to a pole, played in real time (no camera needed).
     #[default]
     Sim,
+    /// The DVS240/DAVIS240 on USB through libcaer (a build with `--features caer`).
+    Caer,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SourceConfig {
     pub kind: SourceKind,
+    /// caer: libcaer settings applied after its defaults, as [module, parameter,
+    /// value] (biases and filters; see libcaer's davis.h for the addresses).
+    pub caer_settings: Vec<(i8, u8, u32)>,
     /// sim: daemon time of the first approach, and the period between approaches.
     pub sim_first_approach_us: i64,
     pub sim_repeat_us: i64,
@@ -35,6 +40,7 @@ impl Default for SourceConfig {
     fn default() -> Self {
         Self {
             kind: SourceKind::Sim,
+            caer_settings: Vec::new(),
             sim_first_approach_us: 1_000_000,
             sim_repeat_us: 5_000_000,
             sim_seed: 1,

@@ -1,0 +1,152 @@
+/*
+ * A stand-in for libcaer, implementing the functions faithd calls, for tests:
+ * one "DAVIS240" that serves a scripted stream of polarity packets (a vertical edge
+ * sweeping right, ON events, 1 ms per container), then vanishes (the shutdown
+ * callback fires, DataGet returns NULL), refuses a number of opens, and returns.
+ */
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct caer_device_handle {
+    int32_t served;
+    void (*shutdown)(void *);
+    void *shutdown_ptr;
+    bool running;
+};
+
+struct caer_event_packet_container {
+    int32_t packets;
+    uint8_t *packet;
+};
+
+static int32_t script_before_disconnect = 1000000;
+static int32_t script_failed_opens = 0;
+static int32_t failed_opens_left = 0;
+static int32_t open_attempts = 0;
+static bool vanished = false;
+static int64_t stream_time_us = 0;
+static int64_t config_values[16][64];
+static bool config_set[16][64];
+
+void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens_after) {
+    script_before_disconnect = containers_before_disconnect;
+    script_failed_opens = failed_opens_after;
+    failed_opens_left = 0;
+    open_attempts = 0;
+    vanished = false;
+    stream_time_us = 0;
+    memset(config_set, 0, sizeof(config_set));
+}
+
+int32_t caer_mock_open_attempts(void) { return open_attempts; }
+
+int64_t caer_mock_config_value(int8_t mod, uint8_t param) {
+    int m = mod + 8;
+    if (m < 0 || m >= 16 || param >= 64 || !config_set[m][param]) return -1;
+    return config_values[m][param];
+}
+
+struct caer_device_handle *caerDeviceOpen(uint16_t id, uint16_t type, uint8_t bus, uint8_t addr,
+                                          const char *serial) {
+    (void) id; (void) bus; (void) addr; (void) serial;
+    open_attempts++;
+    if (type != 4) return NULL;
+    if (vanished) {
+        if (failed_opens_left > 0) { failed_opens_left--; return NULL; }
+        vanished = false;
+    }
+    struct caer_device_handle *h = calloc(1, sizeof *h);
+    return h;
+}
+
+bool caerDeviceClose(struct caer_device_handle **h) {
+    if (h == NULL || *h == NULL) return false;
+    free(*h);
+    *h = NULL;
+    return true;
+}
+
+bool caerDeviceSendDefaultConfig(struct caer_device_handle *h) { return h != NULL; }
+
+bool caerDeviceConfigSet(struct caer_device_handle *h, int8_t mod, uint8_t param, uint32_t value) {
+    int m = mod + 8;
+    if (h == NULL || m < 0 || m >= 16 || param >= 64) return false;
+    config_values[m][param] = value;
+    config_set[m][param] = true;
+    return true;
+}
+
+bool caerDeviceDataStart(struct caer_device_handle *h, void (*inc)(void *), void (*dec)(void *),
+                         void *ptr, void (*shutdown)(void *), void *shutdown_ptr) {
+    (void) inc; (void) dec; (void) ptr;
+    if (h == NULL || vanished) return false;
+    h->shutdown = shutdown;
+    h->shutdown_ptr = shutdown_ptr;
+    h->running = true;
+    return true;
+}
+
+bool caerDeviceDataStop(struct caer_device_handle *h) {
+    if (h == NULL) return false;
+    h->running = false;
+    return true;
+}
+
+static void put_i32(uint8_t *p, int32_t v) { memcpy(p, &v, 4); }
+static void put_i16(uint8_t *p, int16_t v) { memcpy(p, &v, 2); }
+
+struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle *h) {
+    if (h == NULL || !h->running || vanished) return NULL;
+    if (h->served >= script_before_disconnect) {
+        vanished = true;
+        failed_opens_left = script_failed_opens;
+        h->running = false;
+        if (h->shutdown) h->shutdown(h->shutdown_ptr);
+        return NULL;
+    }
+    /* One container per call: 1 ms of a vertical edge at column (served % 240),
+       one ON event per row, plus one invalid event that must be skipped. */
+    const int32_t rows = 180, n = rows + 1, size = 8;
+    uint8_t *packet = calloc(1, 28 + (size_t) n * size);
+    put_i16(packet + 0, 1);      /* eventType: polarity */
+    put_i16(packet + 2, 1);      /* eventSource */
+    put_i32(packet + 4, size);   /* eventSize */
+    put_i32(packet + 8, 4);      /* eventTSOffset */
+    put_i32(packet + 12, 0);     /* eventTSOverflow */
+    put_i32(packet + 16, n);     /* eventCapacity */
+    put_i32(packet + 20, n);     /* eventNumber */
+    put_i32(packet + 24, rows);  /* eventValid */
+    int32_t x = h->served % 240;
+    for (int32_t k = 0; k < n; k++) {
+        uint8_t *e = packet + 28 + (size_t) k * size;
+        bool valid = k < rows;
+        uint32_t data = ((uint32_t) x << 17) | ((uint32_t) (k % rows) << 2) | 2u | (valid ? 1u : 0u);
+        put_i32(e, (int32_t) data);
+        put_i32(e + 4, (int32_t) (stream_time_us + k));
+    }
+    /* The real eventNumber field sits at offset 20 and eventValid at 24 in libcaer's
+       header; faithd reads eventNumber at 20. */
+    stream_time_us += 1000;
+    h->served++;
+    struct caer_event_packet_container *c = calloc(1, sizeof *c);
+    c->packets = 1;
+    c->packet = packet;
+    return c;
+}
+
+void caerEventPacketContainerFree(struct caer_event_packet_container *c) {
+    if (c == NULL) return;
+    free(c->packet);
+    free(c);
+}
+
+int32_t caerEventPacketContainerGetEventPacketsNumber(struct caer_event_packet_container *c) {
+    return c == NULL ? 0 : c->packets;
+}
+
+uint8_t *caerEventPacketContainerGetEventPacket(struct caer_event_packet_container *c, int32_t n) {
+    if (c == NULL || n != 0) return NULL;
+    return c->packet;
+}
