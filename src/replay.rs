@@ -83,15 +83,8 @@ pub fn attitude_from_tlog(path: &Path, offset_us: i64) -> Result<Vec<AttitudeSam
         source,
     })? {
         if let Some(mavlink::dialects::common::MavMessage::ATTITUDE(a)) = rec.message {
-            out.push(AttitudeSample {
-                t_us: i64::from(a.time_boot_ms) * 1000 + offset_us,
-                roll_rad: f64::from(a.roll),
-                pitch_rad: f64::from(a.pitch),
-                yaw_rad: f64::from(a.yaw),
-                roll_rate_rad_s: f64::from(a.rollspeed),
-                pitch_rate_rad_s: f64::from(a.pitchspeed),
-                yaw_rate_rad_s: f64::from(a.yawspeed),
-            });
+            let t_us = i64::from(a.time_boot_ms) * 1000 + offset_us;
+            out.push(crate::link::telemetry::attitude_sample(t_us, &a));
         }
     }
     out.sort_by_key(|s| s.t_us);

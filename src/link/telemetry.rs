@@ -1,6 +1,6 @@
 //! Turns the autopilot's MAVLink messages into vehicle state and attitude samples.
 
-use mavlink::dialects::common::{MavMessage, MavModeFlag};
+use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage, MavModeFlag};
 
 use super::clock_sync::ClockSync;
 use crate::attitude::AttitudeSample;
@@ -14,6 +14,19 @@ pub enum Update {
     Attitude(AttitudeSample),
     /// Not a message faithd uses.
     Ignored,
+}
+
+/// An ATTITUDE message as a core sample stamped `t_us`.
+pub fn attitude_sample(t_us: i64, a: &ATTITUDE_DATA) -> AttitudeSample {
+    AttitudeSample {
+        t_us,
+        roll_rad: f64::from(a.roll),
+        pitch_rad: f64::from(a.pitch),
+        yaw_rad: f64::from(a.yaw),
+        roll_rate_rad_s: f64::from(a.rollspeed),
+        pitch_rate_rad_s: f64::from(a.pitchspeed),
+        yaw_rate_rad_s: f64::from(a.yawspeed),
+    }
 }
 
 /// Applies `msg`, received at daemon time `rx_us`, to `state`.
@@ -76,15 +89,7 @@ pub fn apply(
             }
             let t_us = sync.observe(i64::from(a.time_boot_ms) * 1000, rx_us);
             state.last_attitude_us = Some(rx_us);
-            Update::Attitude(AttitudeSample {
-                t_us,
-                roll_rad: f64::from(a.roll),
-                pitch_rad: f64::from(a.pitch),
-                yaw_rad: f64::from(a.yaw),
-                roll_rate_rad_s: f64::from(a.rollspeed),
-                pitch_rate_rad_s: f64::from(a.pitchspeed),
-                yaw_rate_rad_s: f64::from(a.yawspeed),
-            })
+            Update::Attitude(attitude_sample(t_us, a))
         }
         _ => Update::Ignored,
     }
@@ -93,7 +98,7 @@ pub fn apply(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use mavlink::dialects::common::{ATTITUDE_DATA, HEARTBEAT_DATA, RC_CHANNELS_DATA};
+    use mavlink::dialects::common::{HEARTBEAT_DATA, RC_CHANNELS_DATA};
 
     #[test]
     fn heartbeat_armed_flag_and_rc_count() {
