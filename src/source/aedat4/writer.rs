@@ -1,7 +1,7 @@
 //! AEDAT 4 writer: the format faithd records flights in, readable by DV and
 //! dv-processing.
 
-use std::io::{Seek, SeekFrom, Write};
+use std::io::{Seek, Write};
 
 use super::compression::compress;
 use super::flatbuf::{self, DataTableEntry};
@@ -46,6 +46,8 @@ pub struct Aedat4Writer<W: Write + Seek> {
     output: W,
     config: Aedat4Config,
     written_bytes: u64,
+    // Where the IO header starts: the index position is patched there once the index is written again.
+    #[allow(dead_code)]
     header_at_bytes: u64,
     last_t_us: Option<i64>,
     table: Vec<DataTableEntry>,
@@ -153,22 +155,17 @@ impl<W: Write + Seek> Aedat4Writer<W> {
         Ok(())
     }
 
-    /// Writes the packet index, records its position in the header, flushes, and
-    /// hands back the output positioned at its end.
+    /// Flushes and hands back the output positioned at its end.
+    ///
+    /// The packet index (data table) is not written: dv-processing 2.0.4 spun forever
+    /// reading the index this writer produced (found by tests/aedat4_interop.rs), while
+    /// it reads files without one (`dataTablePosition = -1`) by walking the packets, as
+    /// faithd does. Until the index is understood, recordings carry none.
     pub fn finish(mut self) -> Result<W, SourceError> {
-        let table_at_bytes = self.written_bytes;
-        let mut bytes = Vec::new();
-        flatbuf::write_data_table(&mut bytes, &self.table);
-        let field_at_bytes = self.header_at_bytes + flatbuf::IO_HEADER_DATA_TABLE_AT as u64;
-        let result = (|| {
-            self.output.write_all(&bytes)?;
-            self.output.seek(SeekFrom::Start(field_at_bytes))?;
-            self.output
-                .write_all(&(table_at_bytes as i64).to_le_bytes())?;
-            self.output.seek(SeekFrom::End(0))?;
-            self.output.flush()
-        })();
-        result.map_err(|e| SourceError::write_io(e, table_at_bytes))?;
+        let at = self.written_bytes;
+        self.output
+            .flush()
+            .map_err(|e| SourceError::write_io(e, at))?;
         Ok(self.output)
     }
 }

@@ -1,0 +1,12 @@
+//! Any bytes given to the text reader give events or an error, never a panic or an
+//! unbounded allocation.
+#![no_main]
+
+use faithd::source::{Format, open_reader, read_all};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    if let Ok(mut reader) = open_reader(std::io::Cursor::new(data.to_vec()), Format::Text) {
+        let _ = read_all(&mut *reader);
+    }
+});
