@@ -79,14 +79,7 @@ impl<R: Read> Aedat2Reader<R> {
 
     pub fn with_layout(input: R, layout: Aedat2Layout) -> Result<Self, SourceError> {
         let mut input = CountedReader::new(input);
-        let mut magic = [0u8; 12];
-        if !input.read_exact_or_eof(&mut magic, "AEDAT 2.0 signature")? || magic != AEDAT2_MAGIC {
-            return Err(SourceError::BadMagic {
-                offset_bytes: 0,
-                expected: "#!AER-DAT2.0",
-                found: String::from_utf8_lossy(&magic).into_owned(),
-            });
-        }
+        input.expect_magic(AEDAT2_MAGIC, "#!AER-DAT2.0")?;
         let mut rest_of_line = Vec::new();
         input.read_line(&mut rest_of_line, 4096, "header line")?;
         read_hash_header(&mut input, None)?;

@@ -33,14 +33,7 @@ pub struct Aedat3Reader<R> {
 impl<R: Read> Aedat3Reader<R> {
     pub fn new(input: R) -> Result<Self, SourceError> {
         let mut input = CountedReader::new(input);
-        let mut magic = [0u8; 12];
-        if !input.read_exact_or_eof(&mut magic, "AEDAT 3.1 signature")? || magic != AEDAT3_MAGIC {
-            return Err(SourceError::BadMagic {
-                offset_bytes: 0,
-                expected: "#!AER-DAT3.1",
-                found: String::from_utf8_lossy(&magic).into_owned(),
-            });
-        }
+        input.expect_magic(AEDAT3_MAGIC, "#!AER-DAT3.1")?;
         let mut rest_of_line = Vec::new();
         input.read_line(&mut rest_of_line, 4096, "header line")?;
         if !read_hash_header(&mut input, Some(b"#!END-HEADER"))? {

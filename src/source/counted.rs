@@ -130,15 +130,58 @@ impl<R: Read> CountedReader<R> {
         Ok(())
     }
 
-    /// The next byte without consuming it, or `None` at the end of the file.
-    pub(crate) fn peek_byte(&mut self) -> Result<Option<u8>, SourceError> {
-        loop {
+    /// Reads the signature a format starts with. A file that is shorter than the
+    /// signature or starts with other bytes is not this format: [`SourceError::BadMagic`]
+    /// at byte 0, showing what was found.
+    pub(crate) fn expect_magic(
+        &mut self,
+        magic: &[u8],
+        expected: &'static str,
+    ) -> Result<(), SourceError> {
+        let mut found = Vec::with_capacity(magic.len());
+        (&mut self.inner)
+            .take(magic.len() as u64)
+            .read_to_end(&mut found)
+            .map_err(|e| self.io_error(e))?;
+        self.offset_bytes += found.len() as u64;
+        if found == magic {
+            Ok(())
+        } else {
+            Err(SourceError::BadMagic {
+                offset_bytes: 0,
+                expected,
+                found: String::from_utf8_lossy(&found).into_owned(),
+            })
+        }
+    }
+
+    /// Whether the buffered bytes ahead start a `#` text line: `#`, then text (UTF-8, no
+    /// control characters but tab and CR) up to a `\n`. AEDAT 2 has no end-of-header
+    /// marker and a binary record can start with `#` (0x23), so a header line is told
+    /// apart from data by being text. A line longer than the buffer counts as text.
+    pub(crate) fn at_text_line(&mut self) -> Result<bool, SourceError> {
+        let ahead = loop {
             match self.inner.fill_buf() {
-                Ok(buf) => return Ok(buf.first().copied()),
+                Ok(buf) => break buf,
                 Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => return Err(self.io_error(e)),
             }
+        };
+        if ahead.first() != Some(&b'#') {
+            return Ok(false);
         }
+        let line = match ahead.iter().position(|&b| b == b'\n') {
+            Some(end) => &ahead[..end],
+            None => ahead,
+        };
+        let is_text = match std::str::from_utf8(line) {
+            Ok(text) => !text
+                .chars()
+                .any(|c| c.is_control() && c != '\t' && c != '\r'),
+            // A multi-byte character cut by the end of the buffer is still text.
+            Err(error) => error.error_len().is_none() && ahead.len() == line.len(),
+        };
+        Ok(is_text)
     }
 
     /// Reads one line including its `\n` into `out` (cleared first). A line longer than
@@ -181,7 +224,7 @@ pub(crate) fn read_hash_header<R: Read>(
     const MAX_LINE_BYTES: u64 = 64 * 1024;
     const MAX_HEADER_BYTES: u64 = 16 * 1024 * 1024;
     let mut line = Vec::new();
-    while reader.peek_byte()? == Some(b'#') {
+    while reader.at_text_line()? {
         if reader.offset_bytes() > MAX_HEADER_BYTES {
             return Err(SourceError::TooLarge {
                 field: "header",

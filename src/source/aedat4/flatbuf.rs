@@ -34,9 +34,14 @@ fn fail<T>(at: usize, reason: impl Into<String>) -> Result<T, FlatError> {
 fn bytes_at<const N: usize>(buf: &[u8], at: usize) -> Result<[u8; N], FlatError> {
     match at.checked_add(N).and_then(|end| buf.get(at..end)) {
         Some(slice) => Ok(slice.try_into().expect("slice of length N")),
+        // A damaged offset can point anywhere; the error points at the buffer's end so
+        // it stays inside the file, and the reason keeps the position that was asked.
         None => fail(
-            at,
-            format!("{N}-byte read past the end of a {}-byte buffer", buf.len()),
+            at.min(buf.len()),
+            format!(
+                "{N}-byte read at byte {at} past the end of a {}-byte buffer",
+                buf.len()
+            ),
         ),
     }
 }

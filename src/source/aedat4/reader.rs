@@ -27,14 +27,7 @@ impl<R: Read> Aedat4Reader<R> {
     /// Reads the version line and the `IOHeader`.
     pub fn new(input: R) -> Result<Self, SourceError> {
         let mut input = CountedReader::new(input);
-        let mut magic = [0u8; MAGIC.len()];
-        if !input.read_exact_or_eof(&mut magic, "AEDAT 4.0 signature")? || &magic != MAGIC {
-            return Err(SourceError::BadMagic {
-                offset_bytes: 0,
-                expected: "#!AER-DAT4.0\\r\\n",
-                found: String::from_utf8_lossy(&magic).into_owned(),
-            });
-        }
+        input.expect_magic(MAGIC, "#!AER-DAT4.0\\r\\n")?;
         let size_at_bytes = input.offset_bytes();
         let mut size = [0u8; 4];
         input.read_exact(&mut size, "IOHeader size")?;

@@ -96,6 +96,18 @@ proptest! {
     }
 }
 
+/// A record whose first byte is `#` (0x23) is data, not another header line: AEDAT 2
+/// has no end-of-header marker, so the reader must tell text from records.
+#[test]
+fn aedat2_record_starting_with_a_hash_is_not_header() {
+    // Row 36 from the top is raw row 143: address 0x23C0_0000.
+    let events = vec![ev(0, 0, 36, false), ev(5, 3, 36, true)];
+    let bytes = aedat2_bytes(&events);
+    let first_record = bytes.len() - 16;
+    assert_eq!(bytes[first_record], b'#');
+    assert_eq!(read_bytes(&bytes, Format::Aedat2).unwrap(), events);
+}
+
 #[test]
 fn aedat2_timestamps_unwrap_past_32_bits() {
     let events: Vec<Event> = (0..10).map(|i| ev(i * 1_000_000_000, 1, 2, true)).collect();
