@@ -31,3 +31,4 @@ pub mod sim;
 pub mod source;
 pub mod synth;
 pub mod ttc;
+pub mod window_log;

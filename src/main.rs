@@ -293,6 +293,13 @@ enum Command {
         /// Window (decision period), microseconds; default daemon.period_us.
         #[arg(long)]
         window_us: Option<i64>,
+        /// The window log of a daemon recording (`*.windows.jsonl`): replay its windows
+        /// exactly as the daemon ran them (window ends, event counts, load shedding,
+        /// logged pipeline settings unless --config), put the .tlog on the daemon clock
+        /// by itself, and check every window against the live decision (exit 3 if any
+        /// differs).
+        #[arg(long, conflicts_with_all = ["imu", "window_us", "attitude_offset_us"])]
+        windows: Option<PathBuf>,
         /// One JSON object per window.
         #[arg(long)]
         json: bool,
@@ -438,6 +445,50 @@ fn replay(
     }
 }
 
+fn replay_window_log(
+    events: &std::path::Path,
+    mavlink: Option<&std::path::Path>,
+    log: &std::path::Path,
+    config: Option<&std::path::Path>,
+    json: bool,
+) -> ExitCode {
+    let pipeline = match config.map(FaithdConfig::load).transpose() {
+        Ok(c) => c.map(|c| c.pipeline),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if mavlink.is_none() {
+        eprintln!("note: no --mavlink: replaying without the recorded attitude");
+    }
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let result = faithd::replay::replay_window_log(events, mavlink, log, pipeline, json, &mut out);
+    let _ = std::io::Write::flush(&mut out);
+    match result {
+        Ok(r) if r.differing == 0 => {
+            eprintln!(
+                "replayed {} windows: every one as decided in flight",
+                r.windows
+            );
+            ExitCode::SUCCESS
+        }
+        Ok(r) => {
+            let (t_us, why) = r.first_difference.unwrap_or_default();
+            eprintln!(
+                "replayed {} windows: {} differ from the flight; the first at {t_us} us ({why})",
+                r.windows, r.differing
+            );
+            ExitCode::from(3)
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
 fn run(path: &std::path::Path) -> ExitCode {
     let config = match FaithdConfig::load(path) {
         Ok(c) => c,
@@ -508,16 +559,22 @@ fn main() -> ExitCode {
             imu,
             config,
             window_us,
+            windows,
             json,
-        } => replay(
-            &events,
-            mavlink.as_deref(),
-            attitude_offset_us,
-            imu.as_deref(),
-            config.as_deref(),
-            window_us,
-            json,
-        ),
+        } => match windows {
+            Some(log) => {
+                replay_window_log(&events, mavlink.as_deref(), &log, config.as_deref(), json)
+            }
+            None => replay(
+                &events,
+                mavlink.as_deref(),
+                attitude_offset_us,
+                imu.as_deref(),
+                config.as_deref(),
+                window_us,
+                json,
+            ),
+        },
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());

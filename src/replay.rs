@@ -16,9 +16,15 @@ use crate::attitude::AttitudeSample;
 use crate::decide::Decision;
 use crate::event::Event;
 use crate::foe::FoeEstimate;
+use crate::link::AttitudeLog;
+use crate::link::clock_sync::ClockSync;
+use crate::link::telemetry::{self, Update};
 use crate::link::tlog::{TlogError, TlogReader};
 use crate::pipeline::{NoClock, Pipeline, PipelineConfig};
+use crate::safety::vehicle::VehicleState;
 use crate::source::{SourceError, open_events};
+use crate::window_log::{RecordedWindow, WINDOW_LOG_VERSION, WindowLogHeader, difference};
+use serde::Deserialize;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ReplayError {
@@ -33,6 +39,12 @@ pub enum ReplayError {
     },
     #[error("{path}, line {line}: {what}")]
     Imu {
+        path: String,
+        line: usize,
+        what: String,
+    },
+    #[error("{path}, line {line}: {what}")]
+    WindowLog {
         path: String,
         line: usize,
         what: String,
@@ -60,7 +72,7 @@ pub struct WindowLine {
     pub decision: Decision,
 }
 
-fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
+pub(crate) fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
     match foe {
         FoeEstimate::Point { x_px, y_px, .. } => serde_json::json!({"x_px": x_px, "y_px": y_px}),
         FoeEstimate::Unbounded { side, .. } => {
@@ -194,31 +206,194 @@ pub fn replay(
             }
             let take = pending.partition_point(|e| e.t_us < end_us);
             let report = pipeline.process_window(&pending[..take], &samples, end_us, &mut NoClock);
-            let line = WindowLine {
-                t_us: end_us,
-                events: take,
-                foe: foe_json(&report.foe),
-                vectors: report.vectors.len(),
-                clusters: report.clusters.len(),
-                derotated: report.derotation.applied,
-                decision: report.decision,
-            };
+            let line = WindowLine::from_report(end_us, take, &report);
             pending.drain(..take);
             windows += 1;
             window_end_us = Some(end_us + window_us);
-            if json {
-                serde_json::to_writer(&mut *out, &line)
-                    .map_err(|e| ReplayError::Output(e.into()))?;
-                writeln!(out).map_err(ReplayError::Output)?;
-            } else {
-                writeln!(
-                    out,
-                    "{:>12} us  {:>6} events  {}",
-                    line.t_us, line.events, line.decision
-                )
-                .map_err(ReplayError::Output)?;
-            }
+            print_line(&line, json, out)?;
         }
     }
     Ok(windows)
+}
+
+/// How a flight's replay against its window log went.
+#[derive(Debug, Default)]
+pub struct LogReplay {
+    pub windows: usize,
+    /// Windows whose replay differs from what the daemon decided live.
+    pub differing: usize,
+    /// The first difference: window time and what differed.
+    pub first_difference: Option<(i64, String)>,
+}
+
+/// Replays a daemon recording window by window as its window log says the daemon ran
+/// it (see [`crate::window_log`]), printing each window as [`replay`] does and
+/// comparing it with the recorded one. `config` overrides the logged pipeline
+/// configuration (to try other settings on a recorded flight).
+pub fn replay_window_log(
+    events_path: &Path,
+    tlog_path: Option<&Path>,
+    log_path: &Path,
+    config: Option<PipelineConfig>,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<LogReplay, ReplayError> {
+    let log_err = |line: usize, what: String| ReplayError::WindowLog {
+        path: log_path.display().to_string(),
+        line,
+        what,
+    };
+    let file = std::fs::File::open(log_path).map_err(|source| ReplayError::Io {
+        path: log_path.display().to_string(),
+        source,
+    })?;
+    let mut lines = std::io::BufReader::new(file).lines().enumerate();
+    let header_text = match lines.next() {
+        Some((_, line)) => line.map_err(|source| ReplayError::Io {
+            path: log_path.display().to_string(),
+            source,
+        })?,
+        None => return Err(log_err(1, "empty file: no header line".into())),
+    };
+    let header: WindowLogHeader =
+        serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
+    if header.faithd_window_log != WINDOW_LOG_VERSION {
+        return Err(log_err(
+            1,
+            format!(
+                "window log version {} (this faithd reads {WINDOW_LOG_VERSION})",
+                header.faithd_window_log
+            ),
+        ));
+    }
+    let mut attitude = match tlog_path {
+        Some(path) => AttitudeArrivals::from_tlog(path, &header)?,
+        None => AttitudeArrivals::default(),
+    };
+    let config = config.unwrap_or(header.pipeline);
+    let events_err = |source| ReplayError::Events {
+        path: events_path.display().to_string(),
+        source,
+    };
+    let mut reader = open_events(events_path).map_err(events_err)?;
+    let mut pipeline = Pipeline::new(config);
+    let mut pending: Vec<Event> = Vec::new();
+    let mut batch = Vec::new();
+    let mut samples = Vec::new();
+    let mut result = LogReplay::default();
+    for (index, line) in lines {
+        let line_no = index + 1;
+        let text = line.map_err(|source| ReplayError::Io {
+            path: log_path.display().to_string(),
+            source,
+        })?;
+        let recorded: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| log_err(line_no, e.to_string()))?;
+        let window =
+            RecordedWindow::deserialize(&recorded).map_err(|e| log_err(line_no, e.to_string()))?;
+        while pending.len() < window.events {
+            if !reader.next_batch(&mut batch).map_err(events_err)? {
+                return Err(log_err(
+                    line_no,
+                    format!(
+                        "the window at {} us took {} events, but the event recording ends \
+                         {} events short",
+                        window.t_us,
+                        window.events,
+                        window.events - pending.len()
+                    ),
+                ));
+            }
+            pending.extend_from_slice(&batch);
+        }
+        pipeline.set_max_vectors(window.max_vectors);
+        pipeline.set_foe_iterations(window.foe_iterations);
+        attitude.window(window.t_us, config.history_us, &mut samples);
+        let report = pipeline.process_window(
+            &pending[..window.events],
+            &samples,
+            window.t_us,
+            &mut NoClock,
+        );
+        let replayed = WindowLine::from_report(window.t_us, window.events, &report);
+        pending.drain(..window.events);
+        result.windows += 1;
+        let replayed_json =
+            serde_json::to_value(&replayed).map_err(|e| ReplayError::Output(e.into()))?;
+        if let Some(why) = difference(&recorded, &replayed_json) {
+            result.differing += 1;
+            result.first_difference.get_or_insert((window.t_us, why));
+        }
+        print_line(&replayed, json, out)?;
+    }
+    Ok(result)
+}
+
+fn print_line(line: &WindowLine, json: bool, out: &mut dyn Write) -> Result<(), ReplayError> {
+    if json {
+        serde_json::to_writer(&mut *out, line).map_err(|e| ReplayError::Output(e.into()))?;
+        writeln!(out).map_err(ReplayError::Output)
+    } else {
+        writeln!(
+            out,
+            "{:>12} us  {:>6} events  {}",
+            line.t_us, line.events, line.decision
+        )
+        .map_err(ReplayError::Output)
+    }
+}
+
+/// ATTITUDE samples of a daemon recording as the daemon received them: each with its
+/// arrival on the daemon clock, so a window sees exactly the samples that had arrived
+/// when it ran, stamped by the same clock-offset estimate.
+#[derive(Default)]
+struct AttitudeArrivals {
+    /// (arrival_us, sample), in arrival order.
+    arrivals: Vec<(i64, AttitudeSample)>,
+    next: usize,
+    log: AttitudeLog,
+}
+
+impl AttitudeArrivals {
+    fn from_tlog(path: &Path, header: &WindowLogHeader) -> Result<Self, ReplayError> {
+        let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let mut reader = TlogReader::new(std::io::BufReader::new(file));
+        let mut sync = ClockSync::new(header.clock_sync_window);
+        let mut vehicle = VehicleState::default();
+        let mut arrivals = Vec::new();
+        while let Some(rec) = reader.next_record().map_err(|source| ReplayError::Tlog {
+            path: path.display().to_string(),
+            source,
+        })? {
+            let own = rec.header.system_id == u32::from(header.own_system_id)
+                && rec.header.component_id == header.own_component_id;
+            if own || rec.header.system_id != u32::from(header.autopilot_system_id) {
+                continue;
+            }
+            let Some(msg) = rec.message else { continue };
+            let rx_us = rec.t_unix_us as i64 - header.clock_start_unix_us;
+            if let Update::Attitude(sample) = telemetry::apply(&mut vehicle, &mut sync, &msg, rx_us)
+            {
+                arrivals.push((rx_us, sample));
+            }
+        }
+        Ok(Self {
+            arrivals,
+            ..Self::default()
+        })
+    }
+
+    /// The samples the daemon's pipeline saw for the window that ran at `t_us`.
+    fn window(&mut self, t_us: i64, history_us: i64, out: &mut Vec<AttitudeSample>) {
+        while let Some(&(arrival_us, sample)) = self.arrivals.get(self.next)
+            && arrival_us <= t_us
+        {
+            self.log.push(sample);
+            self.next += 1;
+        }
+        self.log.copy_for_window(t_us, history_us, out);
+    }
 }

@@ -400,22 +400,67 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
     );
     assert!(own_heartbeats >= 1);
 
+    // The window log replays the flight exactly: every window, with the recorded
+    // attitude put back on the daemon clock, gives the decision made in flight.
+    let windows = names
+        .iter()
+        .find(|p| p.to_string_lossy().ends_with(".windows.jsonl"))
+        .expect("window log");
+    let logged_windows = std::fs::read_to_string(windows).unwrap().lines().count() - 1;
+    assert!(logged_windows > 50, "{logged_windows} windows logged");
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
         .args(["replay", "--json", "--events"])
         .arg(aedat)
+        .arg("--mavlink")
+        .arg(tlog)
+        .arg("--windows")
+        .arg(windows)
         .output()
         .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
     assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        stderr.contains(&format!(
+            "replayed {logged_windows} windows: every one as decided in flight"
+        )),
+        "{stderr}"
     );
-    let rolls = String::from_utf8_lossy(&out.stdout)
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
         .lines()
-        .filter(|l| l.contains("\"kind\":\"roll\""))
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), logged_windows);
+    let derotated = lines.iter().filter(|l| l["derotated"] == true).count();
+    assert!(
+        derotated * 10 > lines.len() * 9,
+        "only {derotated} of {} windows had attitude",
+        lines.len()
+    );
+    let rolls = lines
+        .iter()
+        .filter(|l| l["decision"]["action"]["kind"] == "roll")
         .count();
     assert!(
         rolls > 0,
         "the recorded approach replays to a roll decision"
     );
+
+    // Other settings on the same flight give other windows, and the replay says so.
+    let dir = TempDir::new("replay-config");
+    let config = dir.0.join("faithd.toml");
+    std::fs::write(&config, "[pipeline]\nseed = 7\n").unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["replay", "--events"])
+        .arg(aedat)
+        .arg("--mavlink")
+        .arg(tlog)
+        .arg("--windows")
+        .arg(windows)
+        .arg("--config")
+        .arg(&config)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("differ from the flight"), "{stderr}");
 }

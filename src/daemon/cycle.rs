@@ -19,7 +19,9 @@ use crate::decide::{Action, Decision};
 use crate::event::Event;
 use crate::link::AttitudeLog;
 use crate::pipeline::{Pipeline, PipelineConfig};
+use crate::replay::WindowLine;
 use crate::safety::gate::{PipelineProblem, PipelineStatus};
+use crate::window_log::WindowLogLine;
 
 /// A roll decision and the newest event of the window that produced it.
 #[derive(Clone, Copy, Debug)]
@@ -54,6 +56,9 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
     )> = None;
     let mut next_us = clock.now_us() + config.period_us;
     let mut stage_clock = clock;
+    // The load-shedding settings in force, for the window log.
+    let mut max_vectors = pipeline_config.max_vectors;
+    let mut foe_iterations = pipeline_config.faith.iterations;
     loop {
         // Wait for the period's end, taking batches as they come.
         loop {
@@ -82,15 +87,19 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
         let started_us = clock.now_us();
         let window_end_us = started_us;
         let take = pending.partition_point(|e| e.t_us <= window_end_us);
-        io.attitude.lock().expect("attitude log lock").copy_since(
-            window_end_us - pipeline_config.history_us - 100_000,
-            &mut attitude,
-        );
+        io.attitude
+            .lock()
+            .expect("attitude log lock")
+            .copy_for_window(window_end_us, pipeline_config.history_us, &mut attitude);
         let last_event_us = pending[..take].last().map_or(window_end_us, |e| e.t_us);
         let report =
             pipeline.process_window(&pending[..take], &attitude, window_end_us, &mut stage_clock);
         let decision = report.decision;
         let derotated = report.derotation.applied;
+        let window_line = io
+            .recorder
+            .as_ref()
+            .map(|_| WindowLine::from_report(window_end_us, take, &report));
         pending.drain(..take);
 
         let problem = if started_us - last_batch_us > config.event_stale_us {
@@ -121,11 +130,22 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
                 last_event_us,
             });
         }
+        if let (Some(recorder), Some(line)) = (&io.recorder, window_line) {
+            let logged = WindowLogLine {
+                line: &line,
+                max_vectors,
+                foe_iterations,
+            };
+            recorder.send(super::record::Item::Window(
+                serde_json::to_string(&logged).expect("window line serialises"),
+            ));
+        }
 
         let cycle_us = clock.now_us() - started_us;
         if let Some(load) = shedder.observe(cycle_us, config.budget_us) {
             pipeline.set_max_vectors(load.max_vectors);
             pipeline.set_foe_iterations(load.iterations);
+            (max_vectors, foe_iterations) = (load.max_vectors, load.iterations);
             tracing::warn!(
                 level = load.level,
                 max_vectors = load.max_vectors,

@@ -178,7 +178,17 @@ pub async fn serve(
         "faithd starting"
     );
 
-    let recorder = record::start(&config.record);
+    let window_log_header = crate::window_log::WindowLogHeader {
+        faithd_window_log: crate::window_log::WINDOW_LOG_VERSION,
+        faithd_version: env!("CARGO_PKG_VERSION").into(),
+        clock_start_unix_us: clock.start_unix_us(),
+        own_system_id: config.mavlink.system_id,
+        own_component_id: config.mavlink.component_id,
+        autopilot_system_id: config.mavlink.autopilot_system_id,
+        clock_sync_window: link::CLOCK_SYNC_WINDOW,
+        pipeline: config.pipeline,
+    };
+    let recorder = record::start(&config.record, &window_log_header);
     let (vehicle_tx, vehicle_rx) = watch::channel(VehicleState::default());
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
     let (mav_out_tx, mav_out_rx) = mpsc::channel(64);

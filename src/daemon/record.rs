@@ -14,9 +14,12 @@ use mavlink::MavHeader;
 use mavlink::dialects::common::MavMessage;
 use serde::{Deserialize, Serialize};
 
+use std::io::Write;
+
 use crate::event::Event;
 use crate::link::tlog::TlogWriter;
 use crate::source::aedat4::{Aedat4Config, Aedat4Writer};
+use crate::window_log::WindowLogHeader;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -47,6 +50,8 @@ pub enum Item {
     Finish(std::sync::mpsc::Sender<()>),
     /// Boxed: a MAVLink message is large next to the other variants.
     Mavlink(Box<MavlinkRecord>),
+    /// One line of the window log (serialised by the pipeline thread).
+    Window(String),
 }
 
 pub struct MavlinkRecord {
@@ -82,7 +87,9 @@ impl Recorder {
 
 /// Starts the recorder thread; `None` (and a log line) when recording is off or the
 /// directory cannot be made.
-pub fn start(config: &RecordConfig) -> Option<Recorder> {
+///
+/// `window_log_header` opens every window-log file (see [`crate::window_log`]).
+pub fn start(config: &RecordConfig, window_log_header: &WindowLogHeader) -> Option<Recorder> {
     if !config.enabled {
         tracing::info!("flight recording off");
         return None;
@@ -93,9 +100,10 @@ pub fn start(config: &RecordConfig) -> Option<Recorder> {
     }
     let (tx, rx) = std::sync::mpsc::sync_channel(4096);
     let config = config.clone();
+    let header = serde_json::to_string(window_log_header).expect("header serialises");
     std::thread::Builder::new()
         .name("faithd-record".into())
-        .spawn(move || run(config, rx))
+        .spawn(move || run(config, header, rx))
         .expect("spawn recorder thread");
     Some(Recorder { tx })
 }
@@ -105,6 +113,8 @@ struct Files {
     events_bytes: u64,
     tlog: Option<TlogWriter<File>>,
     tlog_bytes: u64,
+    /// The window log and the part it belongs to (it follows the event file's).
+    windows: Option<(u32, std::io::BufWriter<File>)>,
     part: u32,
 }
 
@@ -114,7 +124,7 @@ fn unix_now_s() -> u64 {
         .map_or(0, |d| d.as_secs())
 }
 
-fn run(config: RecordConfig, rx: Receiver<Item>) {
+fn run(config: RecordConfig, window_log_header: String, rx: Receiver<Item>) {
     let stem = format!("flight-{}", unix_now_s());
     tracing::info!(dir = %config.dir.display(), %stem, "recording this flight");
     let mut files = Files {
@@ -122,6 +132,7 @@ fn run(config: RecordConfig, rx: Receiver<Item>) {
         events_bytes: 0,
         tlog: None,
         tlog_bytes: 0,
+        windows: None,
         part: 0,
     };
     while let Ok(item) = rx.recv() {
@@ -130,7 +141,7 @@ fn run(config: RecordConfig, rx: Receiver<Item>) {
             let _ = ack.send(());
             return;
         }
-        if let Err(e) = write(&config, &stem, &mut files, item) {
+        if let Err(e) = write(&config, &stem, &window_log_header, &mut files, item) {
             tracing::error!("recording failed, continuing without it: {e}");
             return;
         }
@@ -147,11 +158,35 @@ fn close(files: &mut Files) {
     if let Some(mut t) = files.tlog.take() {
         let _ = t.flush();
     }
+    if let Some((_, mut w)) = files.windows.take() {
+        let _ = w.flush();
+    }
 }
 
-fn write(config: &RecordConfig, stem: &str, files: &mut Files, item: Item) -> Result<(), String> {
+fn write(
+    config: &RecordConfig,
+    stem: &str,
+    window_log_header: &str,
+    files: &mut Files,
+    item: Item,
+) -> Result<(), String> {
     match item {
         Item::Finish(_) => Ok(()),
+        Item::Window(line) => {
+            let part = files.part.max(1);
+            if files.windows.as_ref().is_none_or(|(p, _)| *p != part) {
+                if let Some((_, mut w)) = files.windows.take() {
+                    w.flush().map_err(|e| e.to_string())?;
+                }
+                let path = config.dir.join(format!("{stem}-{part:03}.windows.jsonl"));
+                let file = File::create(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+                let mut w = std::io::BufWriter::new(file);
+                writeln!(w, "{window_log_header}").map_err(|e| e.to_string())?;
+                files.windows = Some((part, w));
+            }
+            let (_, w) = files.windows.as_mut().expect("opened above");
+            writeln!(w, "{line}").map_err(|e| e.to_string())
+        }
         Item::Events(events) => {
             if files.events.is_none() || files.events_bytes >= config.max_file_bytes {
                 if let Some(w) = files.events.take() {

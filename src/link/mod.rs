@@ -65,6 +65,10 @@ impl Default for MavlinkConfig {
     }
 }
 
+/// ATTITUDE messages the clock offset is estimated over (five seconds at 50 Hz); the
+/// replay of a recorded flight uses the same.
+pub const CLOCK_SYNC_WINDOW: usize = 250;
+
 /// Recent attitude samples on the daemon clock, shared with the pipeline thread.
 #[derive(Debug, Default)]
 pub struct AttitudeLog {
@@ -99,6 +103,18 @@ impl AttitudeLog {
         out.extend(self.samples.range(start.saturating_sub(1)..).copied());
     }
 
+    /// The samples a pipeline window ending at `window_end_us` needs: its history and
+    /// a 100 ms margin before it (the live daemon and the replay of its recordings
+    /// both ask this).
+    pub fn copy_for_window(
+        &self,
+        window_end_us: i64,
+        history_us: i64,
+        out: &mut Vec<AttitudeSample>,
+    ) {
+        self.copy_since(window_end_us - history_us - 100_000, out);
+    }
+
     pub fn clear(&mut self) {
         self.samples.clear();
     }
@@ -113,11 +129,17 @@ pub struct LinkOutputs {
     pub recorder: Option<crate::daemon::record::Recorder>,
 }
 
-fn record(outputs: &LinkOutputs, header: MavHeader, msg: &MavMessage) {
+/// Records a frame in or out, stamped with the daemon-clock time `t_us` it was
+/// handled at (in Unix time; see [`DaemonClock::unix_us`]).
+fn record(
+    outputs: &LinkOutputs,
+    clock: &DaemonClock,
+    t_us: i64,
+    header: MavHeader,
+    msg: &MavMessage,
+) {
     if let Some(r) = &outputs.recorder {
-        let t_unix_us = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_micros() as u64);
+        let t_unix_us = clock.unix_us(t_us);
         r.send(crate::daemon::record::Item::Mavlink(Box::new(
             crate::daemon::record::MavlinkRecord {
                 t_unix_us,
@@ -181,7 +203,7 @@ async fn serve(
 ) -> String {
     let (read_half, mut write_half) = tokio::io::split(transport);
     let mut reader = AsyncMavlinkReader::new(read_half);
-    let mut sync = ClockSync::new(250);
+    let mut sync = ClockSync::new(CLOCK_SYNC_WINDOW);
     let mut heartbeat = tokio::time::interval(Duration::from_micros(
         config.heartbeat_period_us.max(1000) as u64,
     ));
@@ -197,8 +219,9 @@ async fn serve(
                         continue;
                     }
                     deadline = tokio::time::Instant::now() + silence;
-                    record(outputs, header, &msg);
-                    receive(&msg, clock.now_us(), &mut sync, outputs);
+                    let rx_us = clock.now_us();
+                    record(outputs, clock, rx_us, header, &msg);
+                    receive(&msg, rx_us, &mut sync, outputs);
                 }
                 Err(mavlink::error::MessageReadError::Io(e)) => return format!("read failed: {e}"),
                 Err(mavlink::error::MessageReadError::Parse(e)) => {
@@ -209,7 +232,7 @@ async fn serve(
                 }
             },
             Some(msg) = outgoing.recv() => {
-                if let Err(e) = send(config, &mut write_half, sequence, &msg, outputs).await {
+                if let Err(e) = send(config, clock, &mut write_half, sequence, &msg, outputs).await {
                     return format!("write failed: {e}");
                 }
             }
@@ -217,7 +240,7 @@ async fn serve(
                 return format!("nothing from the autopilot for {} ms", silence.as_millis());
             }
             _ = heartbeat.tick() => {
-                if let Err(e) = send(config, &mut write_half, sequence, &own_heartbeat(), outputs).await {
+                if let Err(e) = send(config, clock, &mut write_half, sequence, &own_heartbeat(), outputs).await {
                     return format!("write failed: {e}");
                 }
             }
@@ -254,6 +277,7 @@ fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOut
 
 async fn send(
     config: &MavlinkConfig,
+    clock: &DaemonClock,
     writer: &mut (impl tokio::io::AsyncWrite + Unpin),
     sequence: &mut u8,
     msg: &MavMessage,
@@ -264,7 +288,7 @@ async fn send(
         component_id: config.component_id,
         sequence: *sequence,
     };
-    record(outputs, header, msg);
+    record(outputs, clock, clock.now_us(), header, msg);
     *sequence = sequence.wrapping_add(1);
     mavlink::write_versioned_msg_async(writer, MavlinkVersion::V2, header, msg)
         .await
