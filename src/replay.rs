@@ -168,10 +168,7 @@ pub fn replay(
     if samples.is_empty() {
         config.derotation.enabled = false;
     }
-    let events_err = |source| ReplayError::Events {
-        path: events_path.display().to_string(),
-        source,
-    };
+    let events_err = events_error(events_path);
     let mut reader = open_events(events_path).map_err(events_err)?;
     let mut pipeline = Pipeline::new(config);
     let mut pending: Vec<Event> = Vec::new();
@@ -214,6 +211,14 @@ pub fn replay(
         }
     }
     Ok(windows)
+}
+
+/// Names the event file in its reader's errors.
+fn events_error(path: &Path) -> impl Fn(SourceError) -> ReplayError + Copy + '_ {
+    move |source| ReplayError::Events {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
 /// How a flight's replay against its window log went.
@@ -271,10 +276,7 @@ pub fn replay_window_log(
         None => AttitudeArrivals::default(),
     };
     let config = config.unwrap_or(header.pipeline);
-    let events_err = |source| ReplayError::Events {
-        path: events_path.display().to_string(),
-        source,
-    };
+    let events_err = events_error(events_path);
     let mut reader = open_events(events_path).map_err(events_err)?;
     let mut pipeline = Pipeline::new(config);
     let mut pending: Vec<Event> = Vec::new();
