@@ -135,6 +135,7 @@ pub struct Decision {
     pub action: Action,
     pub reason: Reason,
     pub foe_px: Option<(f64, f64)>,
+    /// The flow vectors the FOE was estimated from (the tight ones of the history).
     pub vectors: usize,
     pub clusters: usize,
     pub obstacle: Option<ClusterStats>,

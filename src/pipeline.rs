@@ -151,6 +151,8 @@ pub struct Pipeline {
     dbscan: Dbscan,
     fresh: Vec<FlowVector>,
     history: Vec<FlowVector>,
+    /// The tight vectors of the history, the FOE's input (see `FlowVector::tight`).
+    foe_input: Vec<FlowVector>,
     ttc: Vec<f64>,
     clustered: Vec<usize>,
     xy_px: Vec<(f64, f64)>,
@@ -185,6 +187,7 @@ impl Pipeline {
             dbscan: Dbscan::new(config.cluster),
             fresh: Vec::with_capacity(config.max_vectors),
             history: Vec::with_capacity(2 * config.max_vectors),
+            foe_input: Vec::with_capacity(config.max_vectors),
             ttc: Vec::with_capacity(2 * config.max_vectors),
             clustered: Vec::with_capacity(config.max_vectors),
             xy_px: Vec::with_capacity(config.max_vectors),
@@ -257,7 +260,10 @@ impl Pipeline {
         timings.derotate_ns = lap(clock);
 
         let seed = window_seed(self.config.seed, window_end_us);
-        let raw_foe = self.estimator.as_dyn().estimate(&self.history, seed);
+        self.foe_input.clear();
+        self.foe_input
+            .extend(self.history.iter().filter(|v| v.tight));
+        let raw_foe = self.estimator.as_dyn().estimate(&self.foe_input, seed);
         let foe = self.smooth(raw_foe);
         timings.foe_ns = lap(clock);
 
@@ -272,7 +278,7 @@ impl Pipeline {
             &self.config.decision,
             f64::from(self.config.camera.width_px),
             derotation.applied,
-            self.history.len(),
+            self.foe_input.len(),
             &foe,
             &self.clusters,
         ));

@@ -238,6 +238,8 @@ fn run_flight(
     let mut vectors: Vec<FlowVector> = Vec::new();
     flow.process(&run.events, &mut vectors);
     Derotator::new(camera, DerotationConfig::default()).derotate_all(&mut vectors, &run.attitude);
+    // Every method gets what the pipeline gives its FOE estimator: the tight vectors.
+    vectors.retain(|v| v.tight);
 
     let end_us = (options.duration_s * 1e6) as i64;
     let first_us = options.history_us * 2;

@@ -11,6 +11,9 @@ pub struct FlowVector {
     pub y_px: f64,
     pub u_px_s: f64,
     pub v_px_s: f64,
+    /// The event's neighbourhood also holds a plane without the stale pixels (see
+    /// `FlowConfig::tight_residual_us`): its direction can be trusted for the FOE.
+    pub tight: bool,
 }
 
 impl FlowVector {
@@ -21,6 +24,7 @@ impl FlowVector {
             y_px,
             u_px_s,
             v_px_s,
+            tight: true,
         }
     }
 
