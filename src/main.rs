@@ -111,7 +111,12 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
                     spec.heading_deg,
                     spec.speed_m_s,
                     if o.collided { "HIT" } else { "clear" },
-                    if o.rolled { ", rolled" } else { "" }
+                    match (o.rolled, roll_ttc_s(&o)) {
+                        (true, Some((measured, truth))) =>
+                            format!(", rolled at TTC {measured:.2} s measured, {truth:.2} s true"),
+                        (true, None) => ", rolled".into(),
+                        (false, _) => String::new(),
+                    }
                 );
                 if let (false, Some(d)) = (o.collision_course, &o.decision) {
                     eprintln!("    rolled on a near pass: {d}");
@@ -398,6 +403,15 @@ fn write_bench_figures(
         eprintln!("wrote {}", path.display());
     }
     Ok(())
+}
+
+/// The TTC the roll was decided on and the true one at that moment.
+fn roll_ttc_s(o: &faithd::closed_loop::FlightOutcome) -> Option<(f64, f64)> {
+    let measured = match o.decision?.reason {
+        faithd::decide::Reason::ObstacleAhead { ttc_s, .. } => ttc_s,
+        _ => return None,
+    };
+    Some((measured, o.ttc_at_decision_s?))
 }
 
 fn replay(
