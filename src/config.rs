@@ -272,9 +272,19 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         || format!("must be a fraction 0..1, got {}", de.min_foe_support),
     )?;
     check(
-        (1..=100).contains(&de.confirm_windows),
+        (1..=64).contains(&de.confirm_windows),
         "pipeline.decision.confirm_windows",
-        || format!("must be 1 to 100, got {}", de.confirm_windows),
+        || format!("must be 1 to 64, got {}", de.confirm_windows),
+    )?;
+    check(
+        (de.confirm_windows..=64).contains(&de.confirm_span_windows),
+        "pipeline.decision.confirm_span_windows",
+        || {
+            format!(
+                "must be confirm_windows ({}) to 64, got {}",
+                de.confirm_windows, de.confirm_span_windows
+            )
+        },
     )?;
     check(
         de.max_obstacle_width > 0.0 && de.max_obstacle_width <= 1.0,
@@ -528,6 +538,10 @@ mod tests {
                 "pipeline.flow.radius_px",
             ),
             ("[pipeline.cluster]\neps = -0.2\n", "pipeline.cluster.eps"),
+            (
+                "[pipeline.decision]\nconfirm_windows = 4\nconfirm_span_windows = 3\n",
+                "pipeline.decision.confirm_span_windows",
+            ),
             (
                 "[pipeline.faith]\niterations = 0\n",
                 "pipeline.faith.iterations",

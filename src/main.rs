@@ -165,6 +165,59 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
     ExitCode::SUCCESS
 }
 
+fn sim_straight(runs: usize, seed: u64, config: Option<&std::path::Path>, json: bool) -> ExitCode {
+    use faithd::closed_loop::{experiment, straight};
+    let config = match config.map(FaithdConfig::load).transpose() {
+        Ok(c) => c.unwrap_or_default().pipeline,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let specs = experiment::plan(runs, seed);
+    let outcomes = straight::fly_all(&specs, &config, 2);
+    for (i, o) in outcomes.iter().enumerate() {
+        let what = match (&o.roll, o.collision_course) {
+            (None, true) => "collision course: NO ROLL".to_string(),
+            (Some(r), true) if !o.avoided() => {
+                format!(
+                    "collision course: LATE, rolled at true TTC {:.2} s: {}",
+                    r.true_ttc_s, r.decision
+                )
+            }
+            (Some(r), false) => {
+                format!(
+                    "near pass: rolled at true TTC {:.2} s: {}",
+                    r.true_ttc_s, r.decision
+                )
+            }
+            _ => continue,
+        };
+        eprintln!(
+            "[{}] offset {:+.2} m: {what}",
+            i + 1,
+            o.spec.lateral_offset_m
+        );
+    }
+    let s = straight::summarise(&outcomes, seed);
+    if json {
+        println!("{}", serde_json::to_string(&s).expect("summary serialises"));
+    } else {
+        println!("faithd sim --straight: {} flights, seed {}", s.runs, s.seed);
+        println!(
+            "  collision courses {}: rolled in time {}, late {}, no roll {}",
+            s.collision_courses, s.avoided, s.late, s.no_roll
+        );
+        println!(
+            "  near passes {}: false avoidances {} ({:.1}%)",
+            s.near_passes,
+            s.false_avoidances,
+            100.0 * s.false_avoidances as f64 / s.near_passes.max(1) as f64
+        );
+    }
+    ExitCode::SUCCESS
+}
+
 fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
     if window_us <= 0 {
         eprintln!("error: --window-us must be positive, got {window_us}");
@@ -266,6 +319,15 @@ enum Command {
         /// Print one JSON object.
         #[arg(long)]
         json: bool,
+        /// Fly the same flights straight, without the daemon and faster than real
+        /// time, and report where the decision rule would have rolled (a proxy for
+        /// tuning it over many seeds; see closed_loop::straight).
+        #[arg(long)]
+        straight: bool,
+        /// With --straight: the pipeline settings to judge (`[pipeline]` of a
+        /// faithd.toml); the defaults otherwise.
+        #[arg(long, requires = "straight")]
+        config: Option<std::path::PathBuf>,
     },
     /// Experiments on the built-in simulator.
     Bench {
@@ -553,7 +615,20 @@ fn main() -> ExitCode {
                 closed_loop_demo(seed, offset_m, manual, json, &plot)
             }
         }
-        Command::Sim { runs, seed, json } => sim(runs, seed, json),
+        Command::Sim {
+            runs,
+            seed,
+            json,
+            straight: false,
+            ..
+        } => sim(runs, seed, json),
+        Command::Sim {
+            runs,
+            seed,
+            json,
+            straight: true,
+            config,
+        } => sim_straight(runs, seed, config.as_deref(), json),
         Command::Bench {
             what:
                 BenchCommand::Foe {

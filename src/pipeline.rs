@@ -9,7 +9,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::attitude::AttitudeSample;
 use crate::camera::CameraIntrinsics;
-use crate::cluster::{ClusterStats, Dbscan, DbscanConfig, cluster_features, cluster_stats};
+use crate::cluster::{
+    ClusterStats, Dbscan, DbscanConfig, cluster_features, cluster_stats, expansion,
+};
 use crate::decide::{Action, Decision, DecisionConfig, Reason, decide};
 use crate::derotate::{DerotationConfig, DerotationStats, Derotator};
 use crate::event::Event;
@@ -162,7 +164,8 @@ pub struct Pipeline {
     labels: Vec<Option<u32>>,
     clusters: Vec<ClusterStats>,
     /// Consecutive windows that called for a roll.
-    roll_streak: u32,
+    /// One bit per recent window, newest lowest: did it call for a roll?
+    recent_calls: u64,
     /// The last windows' FOE points, for the median.
     recent_foe_px: std::collections::VecDeque<(f64, f64)>,
 }
@@ -196,7 +199,7 @@ impl Pipeline {
             cluster_labels: Vec::with_capacity(config.max_vectors),
             labels: Vec::with_capacity(2 * config.max_vectors),
             clusters: Vec::new(),
-            roll_streak: 0,
+            recent_calls: 0,
             recent_foe_px: std::collections::VecDeque::new(),
             config,
         }
@@ -222,7 +225,7 @@ impl Pipeline {
     pub fn reset(&mut self) {
         self.flow.reset();
         self.history.clear();
-        self.roll_streak = 0;
+        self.recent_calls = 0;
         self.recent_foe_px.clear();
     }
 
@@ -255,6 +258,7 @@ impl Pipeline {
         } else {
             // Rotating flow would poison the FOE for the whole history span.
             self.history.clear();
+            self.recent_foe_px.clear();
         }
         self.trim_history(window_end_us);
         timings.derotate_ns = lap(clock);
@@ -329,20 +333,27 @@ impl Pipeline {
         }
     }
 
-    /// Holds a roll back until enough consecutive windows have called for it.
+    /// Holds a roll back until `confirm_windows` of the last `confirm_span_windows`
+    /// windows, this one included, have called for it.
     fn confirm(&mut self, mut decision: Decision) -> Decision {
+        let calls = matches!(decision.reason, Reason::ObstacleAhead { .. });
+        self.recent_calls = (self.recent_calls << 1) | u64::from(calls);
         let Reason::ObstacleAhead { ttc_s, .. } = decision.reason else {
-            self.roll_streak = 0;
-            self.recent_foe_px.clear();
             return decision;
         };
-        self.roll_streak = self.roll_streak.saturating_add(1);
+        let span = self.config.decision.confirm_span_windows.clamp(1, 64);
+        let mask = if span == 64 {
+            u64::MAX
+        } else {
+            (1u64 << span) - 1
+        };
+        let windows = (self.recent_calls & mask).count_ones();
         let needed = self.config.decision.confirm_windows;
-        if self.roll_streak < needed {
+        if windows < needed {
             decision.action = Action::Hold;
             decision.reason = Reason::Unconfirmed {
                 ttc_s,
-                windows: self.roll_streak,
+                windows,
                 needed,
             };
         }
@@ -398,6 +409,13 @@ impl Pipeline {
         self.labels.resize(self.history.len(), None);
         for (k, &i) in self.clustered.iter().enumerate() {
             self.labels[i] = self.cluster_labels[k];
+        }
+        for c in &mut self.clusters {
+            let inside = |v: &&FlowVector| {
+                (c.min_x_px..=c.max_x_px).contains(&v.x_px)
+                    && (c.min_y_px..=c.max_y_px).contains(&v.y_px)
+            };
+            c.expansion = expansion(self.history.iter().filter(inside));
         }
     }
 }

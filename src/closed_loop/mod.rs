@@ -7,6 +7,7 @@ pub mod autopilot;
 pub mod experiment;
 pub mod physics;
 pub mod plot;
+pub mod straight;
 
 use std::sync::Arc;
 

@@ -108,7 +108,10 @@ pub fn run(
     let mut t_us = start_us;
     let mut scratch = Vec::new();
     camera.advance(&quad.state(), t_us, &mut scratch);
-    let last_pole_x = arena.poles.iter().map(|p| p.x_m).fold(f64::MIN, f64::max);
+    // The encounter with the pole the course is laid against is over 1 m past it.
+    // Flying on (to past a second pole) would take the vehicle to within a second
+    // of the back wall, where rolling is the right call and not a false avoidance.
+    let end_x_m = spec.poles[0].0 + 1.0;
     loop {
         std::thread::sleep(Duration::from_micros(STEP_US as u64));
         let now_us = clock.now_us();
@@ -143,9 +146,8 @@ pub fn run(
                     roll_us,
                 });
             }
-            let ended = clearance < 0.0
-                || quad.position_m.x > last_pole_x + 1.0
-                || elapsed_s > spec.max_time_s;
+            let ended =
+                clearance < 0.0 || quad.position_m.x > end_x_m || elapsed_s > spec.max_time_s;
             if ended {
                 log.collided = clearance < 0.0;
                 let _ = batches.try_send(batch);

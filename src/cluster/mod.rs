@@ -5,9 +5,11 @@
 //! group of low TTC against the background.
 
 mod dbscan;
+mod expansion;
 mod features;
 mod stats;
 
 pub use dbscan::{Dbscan, DbscanConfig, dbscan_brute_force};
+pub use expansion::{Expansion, expansion};
 pub use features::cluster_features;
 pub use stats::{ClusterStats, cluster_stats};

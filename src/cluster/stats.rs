@@ -13,6 +13,9 @@ pub struct ClusterStats {
     pub max_x_px: f64,
     pub min_y_px: f64,
     pub max_y_px: f64,
+    /// How the cluster's own flow expands, when measurable (see
+    /// [`super::expansion`]); filled in by the pipeline.
+    pub expansion: Option<super::Expansion>,
 }
 
 /// Fills `out` with one entry per cluster id present in `labels`, in id order.
@@ -37,6 +40,7 @@ pub fn cluster_stats(
                 max_x_px: f64::NEG_INFINITY,
                 min_y_px: f64::INFINITY,
                 max_y_px: f64::NEG_INFINITY,
+                expansion: None,
             });
         }
         let c = &mut out[id_usize];
