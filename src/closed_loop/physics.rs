@@ -82,15 +82,8 @@ pub fn initial_quad(spec: &FlightSpec) -> Quad {
     )
 }
 
-/// The physics and camera loop; runs until the flight ends, then signals `done`.
-pub fn run(
-    spec: FlightSpec,
-    shared: Arc<Shared>,
-    clock: DaemonClock,
-    batches: SyncSender<Vec<Event>>,
-) {
-    const STEP_US: i64 = 1000;
-    let mut quad = initial_quad(&spec);
+/// The flight's arena and the camera that renders it, as `spec` describes them.
+pub fn arena_and_camera(spec: &FlightSpec) -> (ArenaSpec, LineCamera) {
     let mut arena = ArenaSpec::with_poles(&spec.poles);
     arena.contrast = spec.contrast;
     let mut camera = LineCamera::new(
@@ -100,6 +93,19 @@ pub fn run(
         spec.seed,
     );
     camera.noise_rate_hz = spec.noise_rate_hz;
+    (arena, camera)
+}
+
+/// The physics and camera loop; runs until the flight ends, then signals `done`.
+pub fn run(
+    spec: FlightSpec,
+    shared: Arc<Shared>,
+    clock: DaemonClock,
+    batches: SyncSender<Vec<Event>>,
+) {
+    const STEP_US: i64 = 1000;
+    let mut quad = initial_quad(&spec);
+    let (arena, mut camera) = arena_and_camera(&spec);
     let mut log = FlightLog {
         min_clearance_m: f64::INFINITY,
         ..Default::default()

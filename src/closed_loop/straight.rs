@@ -12,11 +12,9 @@
 use serde::Serialize;
 
 use super::FlightSpec;
-use super::physics::{VEHICLE_RADIUS_M, initial_quad};
-use crate::camera::{CameraIntrinsics, Mounting};
+use super::physics::{VEHICLE_RADIUS_M, arena_and_camera, initial_quad};
 use crate::decide::{Action, Decision};
 use crate::pipeline::{NoClock, Pipeline, PipelineConfig};
-use crate::sim::line_camera::{ArenaSpec, LineCamera};
 
 /// A roll decided at a true TTC below this is too late to clear the pole.
 pub const IN_TIME_S: f64 = 0.8;
@@ -60,15 +58,7 @@ impl StraightOutcome {
 /// window, after the pilot's switch goes to AUTO, that decided to roll.
 pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutcome {
     let mut quad = initial_quad(spec);
-    let mut arena = ArenaSpec::with_poles(&spec.poles);
-    arena.contrast = spec.contrast;
-    let mut camera = LineCamera::new(
-        CameraIntrinsics::dvs240(),
-        Mounting::forward(),
-        arena.clone(),
-        spec.seed,
-    );
-    camera.noise_rate_hz = spec.noise_rate_hz;
+    let (arena, mut camera) = arena_and_camera(spec);
     let mut pipeline = Pipeline::new(*config);
     let (mut pending, mut attitude) = (Vec::new(), Vec::new());
     // Start the clock at 1 s so no timestamp is negative or zero.
