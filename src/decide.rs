@@ -29,7 +29,7 @@ pub struct DecisionConfig {
     /// The obstacle box is grown by this much left and right before the FOE test,
     /// pixels: the vehicle is wider than a point. 6 px is its 0.15 m half-span at
     /// about 5 m; 4 px missed collision courses that only clip the pole (9 of 480
-    /// in `faithd sim --open-loop`, seeds 1-8, against 2 with 6 px).
+    /// in `faithd sim --straight`, seeds 1-8, against 2 with 6 px).
     pub box_margin_x_px: f64,
     /// The obstacle box is grown by this much above and below, pixels. Larger than
     /// the horizontal margin on purpose: sparse flow on a tall obstacle covers only

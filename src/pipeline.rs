@@ -342,11 +342,7 @@ impl Pipeline {
             return decision;
         };
         let span = self.config.decision.confirm_span_windows.clamp(1, 64);
-        let mask = if span == 64 {
-            u64::MAX
-        } else {
-            (1u64 << span) - 1
-        };
+        let mask = u64::MAX >> (64 - span);
         let windows = (self.recent_calls & mask).count_ones();
         let needed = self.config.decision.confirm_windows;
         if windows < needed {

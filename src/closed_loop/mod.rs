@@ -67,6 +67,19 @@ impl FlightSpec {
         0.25 + VEHICLE_RADIUS_M
     }
 
+    /// Where the flight ends: 1 m past the pole the course is laid against. Flying
+    /// on (to past a second pole) would take the vehicle to within a second of the
+    /// back wall, where rolling is the right call and not a false avoidance.
+    pub fn end_x_m(&self) -> f64 {
+        self.poles[0].0 + 1.0
+    }
+
+    /// True time to contact with the first pole from `x_m` along the arena's axis,
+    /// seconds (negative once past it).
+    pub fn true_ttc_s(&self, x_m: f64) -> f64 {
+        ((self.poles[0].0 - x_m) - Self::contact_distance_m()) / self.speed_m_s
+    }
+
     /// Whether flying straight on would hit the first pole.
     pub fn is_collision_course(&self) -> bool {
         self.lateral_offset_m.abs() < Self::contact_distance_m()
@@ -161,9 +174,7 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
             .path
             .iter()
             .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))?;
-        let pole = spec.poles[0];
-        let gap_m = (pole.0 - p.x_m) - FlightSpec::contact_distance_m();
-        Some(gap_m / spec.speed_m_s)
+        Some(spec.true_ttc_s(p.x_m))
     });
     let latency_ms = started
         .filter(|_| first_rx != i64::MIN)

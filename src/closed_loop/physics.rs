@@ -96,6 +96,16 @@ pub fn arena_and_camera(spec: &FlightSpec) -> (ArenaSpec, LineCamera) {
     (arena, camera)
 }
 
+/// Smallest gap between the vehicle's edge at `position_m` and a pole's surface;
+/// negative on contact.
+pub fn clearance_m(arena: &ArenaSpec, position_m: &Vector3<f64>) -> f64 {
+    arena
+        .poles
+        .iter()
+        .map(|p| (position_m.x - p.x_m).hypot(position_m.y - p.y_m) - p.radius_m - VEHICLE_RADIUS_M)
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// The physics and camera loop; runs until the flight ends, then signals `done`.
 pub fn run(
     spec: FlightSpec,
@@ -114,10 +124,7 @@ pub fn run(
     let mut t_us = start_us;
     let mut scratch = Vec::new();
     camera.advance(&quad.state(), t_us, &mut scratch);
-    // The encounter with the pole the course is laid against is over 1 m past it.
-    // Flying on (to past a second pole) would take the vehicle to within a second
-    // of the back wall, where rolling is the right call and not a false avoidance.
-    let end_x_m = spec.poles[0].0 + 1.0;
+    let end_x_m = spec.end_x_m();
     loop {
         std::thread::sleep(Duration::from_micros(STEP_US as u64));
         let now_us = clock.now_us();
@@ -133,15 +140,7 @@ pub fn run(
             if elapsed_s >= spec.auto_at_s && spec.pilot_auto {
                 shared.switch_auto.store(true, Ordering::Relaxed);
             }
-            let clearance = arena
-                .poles
-                .iter()
-                .map(|p| {
-                    (quad.position_m.x - p.x_m).hypot(quad.position_m.y - p.y_m)
-                        - p.radius_m
-                        - VEHICLE_RADIUS_M
-                })
-                .fold(f64::INFINITY, f64::min);
+            let clearance = clearance_m(&arena, &quad.position_m);
             log.min_clearance_m = log.min_clearance_m.min(clearance);
             if (t_us - start_us) % 10_000 == 0 {
                 log.path.push(PathPoint {

@@ -12,7 +12,7 @@
 use serde::Serialize;
 
 use super::FlightSpec;
-use super::physics::{VEHICLE_RADIUS_M, arena_and_camera, initial_quad};
+use super::physics::{arena_and_camera, clearance_m, initial_quad};
 use crate::decide::{Action, Decision};
 use crate::pipeline::{NoClock, Pipeline, PipelineConfig};
 
@@ -67,8 +67,7 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
     let mut t_us = start_us;
     camera.advance(&quad.state(), t_us, &mut pending);
     pending.clear();
-    let pole = spec.poles[0];
-    let end_x_m = pole.0 + 1.0;
+    let end_x_m = spec.end_x_m();
     let mut roll = None;
     while roll.is_none() {
         t_us += STEP_US;
@@ -78,11 +77,7 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
         if t_us % ATTITUDE_US == 0 {
             attitude.push(state.attitude_sample(t_us));
         }
-        let contact = arena.poles.iter().any(|p| {
-            (quad.position_m.x - p.x_m).hypot(quad.position_m.y - p.y_m)
-                < p.radius_m + VEHICLE_RADIUS_M
-        });
-        if contact || quad.position_m.x > end_x_m {
+        if clearance_m(&arena, &quad.position_m) < 0.0 || quad.position_m.x > end_x_m {
             break;
         }
         if t_us % WINDOW_US != 0 {
@@ -94,10 +89,9 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
         pending.clear();
         let gate_open = spec.pilot_auto && t_us >= auto_us;
         if gate_open && matches!(decision.action, Action::Roll { .. }) {
-            let gap_m = (pole.0 - quad.position_m.x) - FlightSpec::contact_distance_m();
             roll = Some(StraightRoll {
                 t_s: (t_us - start_us) as f64 * 1e-6,
-                true_ttc_s: gap_m / spec.speed_m_s,
+                true_ttc_s: spec.true_ttc_s(quad.position_m.x),
                 decision,
             });
         }
