@@ -32,6 +32,10 @@ fn bench_foe(c: &mut Criterion) {
     group.bench_function("faith", |b| {
         b.iter(|| black_box(faith.estimate(black_box(&flow), 7)))
     });
+    let mut faith_directions = Faith::new(cam, FaithConfig::directions_only());
+    group.bench_function("faith_directions_only", |b| {
+        b.iter(|| black_box(faith_directions.estimate(black_box(&flow), 7)))
+    });
     let mut faith_paper = Faith::new(cam, FaithConfig::paper());
     group.bench_function("faith_paper_variant", |b| {
         b.iter(|| black_box(faith_paper.estimate(black_box(&flow), 7)))

@@ -241,6 +241,45 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         },
     )?;
 
+    check(
+        (0.0..1.0).contains(&fa.plateau_fraction),
+        "pipeline.faith.plateau_fraction",
+        || format!("must be 0 (off) to below 1, got {}", fa.plateau_fraction),
+    )?;
+    positive(fa.plateau_radius_px, "pipeline.faith.plateau_radius_px")?;
+    positive(fa.plateau_cell_px, "pipeline.faith.plateau_cell_px")?;
+    check(
+        (0.0..=120.0).contains(&fa.speed_radius_px),
+        "pipeline.faith.speed_radius_px",
+        || format!("must be 0 (off) to 120 px, got {}", fa.speed_radius_px),
+    )?;
+    check(
+        fa.speed_radius_px == 0.0
+            || fa.speed_step_px >= 0.5 && fa.speed_step_px <= fa.speed_radius_px,
+        "pipeline.faith.speed_step_px",
+        || {
+            format!(
+                "must be 0.5 px to speed_radius_px ({}), got {}",
+                fa.speed_radius_px, fa.speed_step_px
+            )
+        },
+    )?;
+    check(
+        (4.0..=240.0).contains(&fa.speed_patch_px),
+        "pipeline.faith.speed_patch_px",
+        || format!("must be 4 to 240 px, got {}", fa.speed_patch_px),
+    )?;
+    check(
+        fa.speed_temperature >= 0.0 && fa.speed_temperature.is_finite(),
+        "pipeline.faith.speed_temperature",
+        || {
+            format!(
+                "must be a non-negative number (0: the best cell alone), got {}",
+                fa.speed_temperature
+            )
+        },
+    )?;
+
     positive(p.ttc.max_ttc_s, "pipeline.ttc.max_ttc_s")?;
     positive(p.cluster.eps, "pipeline.cluster.eps")?;
     check(
@@ -545,6 +584,18 @@ mod tests {
             (
                 "[pipeline.faith]\niterations = 0\n",
                 "pipeline.faith.iterations",
+            ),
+            (
+                "[pipeline.faith]\nspeed_radius_px = 40.0\nspeed_step_px = 0.0\n",
+                "pipeline.faith.speed_step_px",
+            ),
+            (
+                "[pipeline.faith]\nspeed_patch_px = 1.0\n",
+                "pipeline.faith.speed_patch_px",
+            ),
+            (
+                "[pipeline.faith]\nplateau_fraction = 1.5\n",
+                "pipeline.faith.plateau_fraction",
             ),
             (
                 "[pipeline.camera]\ncx_px = 500.0\n",

@@ -125,8 +125,9 @@ pub struct WindowReport<'a> {
     pub timings: StageTimings,
 }
 
+/// The FOE method in use; FAITH, with its reusable buffers, is the large one.
 enum Estimator {
-    Faith(Faith),
+    Faith(Box<Faith>),
     HalfPlanes(HalfPlaneMap),
     Nesw(Nesw),
     VecIntersections(VecIntersections),
@@ -135,7 +136,7 @@ enum Estimator {
 impl Estimator {
     fn as_dyn(&mut self) -> &mut dyn FoeEstimator {
         match self {
-            Estimator::Faith(e) => e,
+            Estimator::Faith(e) => e.as_mut(),
             Estimator::HalfPlanes(e) => e,
             Estimator::Nesw(e) => e,
             Estimator::VecIntersections(e) => e,
@@ -174,7 +175,7 @@ impl Pipeline {
     pub fn new(config: PipelineConfig) -> Self {
         let cam = config.camera;
         let estimator = match config.foe_method {
-            FoeMethod::Faith => Estimator::Faith(Faith::new(cam, config.faith)),
+            FoeMethod::Faith => Estimator::Faith(Box::new(Faith::new(cam, config.faith))),
             FoeMethod::HalfPlanes => {
                 Estimator::HalfPlanes(HalfPlaneMap::new(cam, config.half_planes))
             }

@@ -52,7 +52,13 @@ impl Default for BenchFoeOptions {
             history_us: 50_000,
             windows: 4,
             threads: std::thread::available_parallelism().map_or(1, |n| n.get()),
-            variants: vec![("faith_paper".to_string(), FaithConfig::paper())],
+            variants: vec![
+                (
+                    "faith_directions".to_string(),
+                    FaithConfig::directions_only(),
+                ),
+                ("faith_paper".to_string(), FaithConfig::paper()),
+            ],
             rotation: false,
         }
     }

@@ -9,6 +9,7 @@ pub mod faith;
 pub mod half_plane_map;
 pub mod nesw;
 pub mod polygon;
+pub mod speed_fit;
 pub mod vec_intersections;
 
 pub use faith::{Faith, FaithConfig};
