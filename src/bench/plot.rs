@@ -51,9 +51,10 @@ const METHOD_COLOURS: [RGBColor; 6] = [
 pub fn plot_errors(report: &BenchFoeReport, path: &Path) -> Result<(), PlotError> {
     use_bundled_font();
     let err = fail(path);
-    let root = BitMapBackend::new(path, (1100, 480)).into_drawing_area();
+    // 700 px a panel leaves each of six method names its own room under its bar.
+    let root = BitMapBackend::new(path, (1400, 480)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
-    let (left, right) = root.split_horizontally(550);
+    let (left, right) = root.split_horizontally(700);
     let n = report.methods.len();
     let names: Vec<String> = report.methods.iter().map(|m| m.name.clone()).collect();
     let label = |x: &f64| {
