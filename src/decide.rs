@@ -27,9 +27,10 @@ pub struct DecisionConfig {
     /// Length of one avoidance roll, microseconds (the paper's 1.5 s).
     pub roll_duration_us: i64,
     /// The obstacle box is grown by this much left and right before the FOE test,
-    /// pixels: the vehicle is wider than a point. 6 px is its 0.15 m half-span at
-    /// about 5 m; 4 px missed collision courses that only clip the pole (9 of 480
-    /// in `faithd sim --straight`, seeds 1-8, against 2 with 6 px).
+    /// pixels: the vehicle is wider than a point, and a course that only clips the
+    /// pole puts the FOE a pixel or two beside it. 8 px is the 0.15 m half-span at
+    /// about 4 m; in `faithd sim --straight`, seeds 1-8, 4 px missed 9 of 480
+    /// collision courses and 6 px 16 (with FAITH's speed fit), 8 px 1.
     pub box_margin_x_px: f64,
     /// The obstacle box is grown by this much above and below, pixels. Larger than
     /// the horizontal margin on purpose: sparse flow on a tall obstacle covers only
@@ -85,7 +86,7 @@ impl Default for DecisionConfig {
         Self {
             ttc_threshold_s: 2.0,
             roll_duration_us: 1_500_000,
-            box_margin_x_px: 6.0,
+            box_margin_x_px: 8.0,
             box_margin_y_px: 45.0,
             min_vectors: 40,
             min_foe_support: 0.5,
