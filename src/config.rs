@@ -122,6 +122,12 @@ fn positive(v: f64, key: &'static str) -> Result<(), Invalid> {
     })
 }
 
+fn non_negative(v: f64, key: &'static str) -> Result<(), Invalid> {
+    check(v.is_finite() && v >= 0.0, key, || {
+        format!("must be a non-negative number, got {v}")
+    })
+}
+
 fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
     let cam = &p.camera;
     check(
@@ -220,26 +226,13 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
     check(fa.min_vectors >= 2, "pipeline.faith.min_vectors", || {
         "must be at least 2".into()
     })?;
-    check(
-        fa.search_margin_px >= 0.0 && fa.search_margin_px.is_finite(),
-        "pipeline.faith.search_margin_px",
-        || format!("must be a non-negative number, got {}", fa.search_margin_px),
-    )?;
+    non_negative(fa.search_margin_px, "pipeline.faith.search_margin_px")?;
     check(
         fa.unbounded_margin_px.is_finite() && fa.unbounded_margin_px > fa.search_margin_px,
         "pipeline.faith.unbounded_margin_px",
         || "must be finite and larger than search_margin_px".into(),
     )?;
-    check(
-        fa.inlier_tolerance_px >= 0.0 && fa.inlier_tolerance_px.is_finite(),
-        "pipeline.faith.inlier_tolerance_px",
-        || {
-            format!(
-                "must be a non-negative number, got {}",
-                fa.inlier_tolerance_px
-            )
-        },
-    )?;
+    non_negative(fa.inlier_tolerance_px, "pipeline.faith.inlier_tolerance_px")?;
 
     check(
         (0.0..1.0).contains(&fa.plateau_fraction),
@@ -295,16 +288,8 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
         "pipeline.decision.roll_duration_us",
         || format!("must be 1 us to 10 s, got {}", de.roll_duration_us),
     )?;
-    check(
-        de.box_margin_x_px >= 0.0 && de.box_margin_x_px.is_finite(),
-        "pipeline.decision.box_margin_x_px",
-        || format!("must be a non-negative number, got {}", de.box_margin_x_px),
-    )?;
-    check(
-        de.box_margin_y_px >= 0.0 && de.box_margin_y_px.is_finite(),
-        "pipeline.decision.box_margin_y_px",
-        || format!("must be a non-negative number, got {}", de.box_margin_y_px),
-    )?;
+    non_negative(de.box_margin_x_px, "pipeline.decision.box_margin_x_px")?;
+    non_negative(de.box_margin_y_px, "pipeline.decision.box_margin_y_px")?;
     check(
         (0.0..=1.0).contains(&de.min_foe_support),
         "pipeline.decision.min_foe_support",
@@ -335,15 +320,9 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
             )
         },
     )?;
-    check(
-        de.min_obstacle_height_px >= 0.0 && de.min_obstacle_height_px.is_finite(),
+    non_negative(
+        de.min_obstacle_height_px,
         "pipeline.decision.min_obstacle_height_px",
-        || {
-            format!(
-                "must be a non-negative number, got {}",
-                de.min_obstacle_height_px
-            )
-        },
     )?;
     check(
         de.min_ttc_s >= 0.0 && de.min_ttc_s < de.ttc_threshold_s,
@@ -608,6 +587,14 @@ mod tests {
             (
                 "[pipeline.decision]\nmin_foe_support = 1.5\n",
                 "pipeline.decision.min_foe_support",
+            ),
+            (
+                "[pipeline.decision]\nbox_margin_x_px = -1.0\n",
+                "pipeline.decision.box_margin_x_px",
+            ),
+            (
+                "[pipeline.faith]\nsearch_margin_px = inf\n",
+                "pipeline.faith.search_margin_px",
             ),
             (
                 "[pipeline.flow]\nmin_speed_px_s = 9000.0\n",
