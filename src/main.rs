@@ -99,7 +99,7 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
         match faithd::closed_loop::fly(spec) {
             Ok(o) => {
                 eprintln!(
-                    "[{}/{}] {} offset {:+.2} m, heading {:+.1} deg, {:.1} m/s: {}{}",
+                    "[{}/{}] {} offset {:+.2} m, heading {:+.1} deg, {:.1} m/s: {}{}{}",
                     i + 1,
                     runs,
                     if o.collision_course {
@@ -112,10 +112,17 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
                     spec.speed_m_s,
                     if o.collided { "HIT" } else { "clear" },
                     match (o.rolled, roll_ttc_s(&o)) {
-                        (true, Some((measured, truth))) =>
-                            format!(", rolled at TTC {measured:.2} s measured, {truth:.2} s true"),
+                        (true, Some((measured, truth))) => format!(
+                            ", rolled at {:.2} s of flight, TTC {measured:.2} s measured, {truth:.2} s true",
+                            o.decision_s.unwrap_or(f64::NAN)
+                        ),
                         (true, None) => ", rolled".into(),
                         (false, _) => String::new(),
+                    },
+                    match o.latency_ms {
+                        Some(ms) =>
+                            format!(", first roll frame {ms:.1} ms after the deciding event"),
+                        None => String::new(),
                     }
                 );
                 if let (false, Some(d)) = (o.collision_course, &o.decision) {
