@@ -262,20 +262,18 @@ pub fn replay_window_log(
     };
     let header: WindowLogHeader =
         serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
+    let as_run = header.pipeline_as_run().map_err(|e| log_err(1, e))?;
     if header.faithd_window_log != WINDOW_LOG_VERSION {
-        return Err(log_err(
-            1,
-            format!(
-                "window log version {} (this faithd reads {WINDOW_LOG_VERSION})",
-                header.faithd_window_log
-            ),
-        ));
+        tracing::info!(
+            version = header.faithd_window_log,
+            "window log from an older faithd: replaying without FAITH's speed fit, as it flew"
+        );
     }
     let mut attitude = match tlog_path {
         Some(path) => AttitudeArrivals::from_tlog(path, &header)?,
         None => AttitudeArrivals::default(),
     };
-    let config = config.unwrap_or(header.pipeline);
+    let config = config.unwrap_or(as_run);
     let events_err = events_error(events_path);
     let mut reader = open_events(events_path).map_err(events_err)?;
     let mut pipeline = Pipeline::new(config);

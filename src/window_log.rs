@@ -13,11 +13,16 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::foe::FaithConfig;
 use crate::pipeline::{PipelineConfig, WindowReport};
 use crate::replay::WindowLine;
 
 /// Format version, bumped on any change a reader must know about.
-pub const WINDOW_LOG_VERSION: u32 = 1;
+///
+/// 2: FAITH's speed fit (`pipeline.faith.speed_*`). A version-1 header has no such
+/// keys, and reading it with today's defaults would switch on a step its flight never
+/// ran; [`WindowLogHeader::pipeline_as_run`] turns it off instead.
+pub const WINDOW_LOG_VERSION: u32 = 2;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -35,6 +40,26 @@ pub struct WindowLogHeader {
     /// ATTITUDE messages the clock-offset estimate runs over.
     pub clock_sync_window: usize,
     pub pipeline: PipelineConfig,
+}
+
+impl WindowLogHeader {
+    /// The pipeline configuration the flight ran with, or why this faithd cannot
+    /// read it.
+    pub fn pipeline_as_run(&self) -> Result<PipelineConfig, String> {
+        match self.faithd_window_log {
+            WINDOW_LOG_VERSION => Ok(self.pipeline),
+            1 => Ok(PipelineConfig {
+                faith: FaithConfig {
+                    speed_radius_px: 0.0,
+                    ..self.pipeline.faith
+                },
+                ..self.pipeline
+            }),
+            v => Err(format!(
+                "window log version {v} (this faithd reads 1 to {WINDOW_LOG_VERSION})"
+            )),
+        }
+    }
 }
 
 /// One window as the daemon ran it.
@@ -92,4 +117,52 @@ pub fn difference(recorded: &serde_json::Value, replayed: &serde_json::Value) ->
             format!("{field}: recorded {}, replayed {}", show(a), show(b))
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn header(version: u32) -> WindowLogHeader {
+        WindowLogHeader {
+            faithd_window_log: version,
+            faithd_version: "0.1.0".into(),
+            clock_start_unix_us: 0,
+            own_system_id: 1,
+            own_component_id: 191,
+            autopilot_system_id: 1,
+            clock_sync_window: 50,
+            pipeline: PipelineConfig::default(),
+        }
+    }
+
+    #[test]
+    fn a_version_1_log_replays_without_the_speed_fit_it_never_ran() {
+        // A version-1 header as the daemon wrote it: no speed_* keys.
+        let mut json = serde_json::to_value(header(1)).unwrap();
+        let faith = json["pipeline"]["faith"].as_object_mut().unwrap();
+        faith.retain(|k, _| !k.starts_with("speed_"));
+        let old: WindowLogHeader = serde_json::from_value(json).unwrap();
+        let config = old.pipeline_as_run().unwrap();
+        assert_eq!(config.faith.speed_radius_px, 0.0);
+        assert_eq!(
+            config.faith.iterations,
+            PipelineConfig::default().faith.iterations
+        );
+
+        let current = header(WINDOW_LOG_VERSION).pipeline_as_run().unwrap();
+        assert_eq!(current, PipelineConfig::default());
+        assert!(current.faith.speed_radius_px > 0.0);
+    }
+
+    #[test]
+    fn an_unknown_version_is_refused_with_its_number() {
+        let err = header(WINDOW_LOG_VERSION + 1)
+            .pipeline_as_run()
+            .unwrap_err();
+        assert!(
+            err.contains(&format!("version {}", WINDOW_LOG_VERSION + 1)),
+            "{err}"
+        );
+    }
 }
