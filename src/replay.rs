@@ -263,7 +263,7 @@ pub fn replay_window_log(
     let header: WindowLogHeader =
         serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
     let as_run = header.pipeline_as_run().map_err(|e| log_err(1, e))?;
-    if header.faithd_window_log != WINDOW_LOG_VERSION {
+    if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
         tracing::info!(
             version = header.faithd_window_log,
             "window log from an older faithd: replaying without FAITH's speed fit, as it flew"

@@ -541,6 +541,7 @@ impl FoeEstimator for Faith {
                 }
             }
         }
+        let mut moved = false;
         if self.config.plateau_fraction > 0.0 {
             let slack = (self.config.plateau_fraction * n as f64).ceil() as i32;
             // A coarse pass over a sample of the boundaries finds the plateau; a fine
@@ -556,7 +557,7 @@ impl FoeEstimator for Faith {
                     (x, y) = p;
                 }
             }
-            support = self.score(x, y);
+            moved = true;
         }
         let sensor_px = (self.camera.width_px, self.camera.height_px);
         let speed_config = self.config.speed_fit();
@@ -565,6 +566,10 @@ impl FoeEstimator for Faith {
             .refine(flow, (x, y), sensor_px, &speed_config)
         {
             (x, y) = p;
+            moved = true;
+        }
+        if moved {
+            // One scoring pass for wherever the plateau and speed steps left the FOE.
             support = self.score(x, y);
         }
         FoeEstimate::Point {
