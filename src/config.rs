@@ -378,35 +378,48 @@ fn validate_links(c: &FaithdConfig) -> Result<(), Invalid> {
         || format!("must be 100 ms to 60 s, got {}", m.silence_timeout_us),
     )?;
     let cmd = &c.command;
-    if cmd.sink == crate::command::SinkKind::Msp {
-        Endpoint::parse(&cmd.msp_endpoint, cmd.msp_baud).map_err(|reason| Invalid {
-            key: "command.msp_endpoint",
-            reason,
-        })?;
-        check(
-            cmd.msp_endpoint != m.endpoint,
-            "command.msp_endpoint",
-            || "must be a different port from mavlink.endpoint".into(),
-        )?;
-    }
     check(
-        cmd.release_us == 0 || (800..=2200).contains(&cmd.release_us),
-        "command.release_us",
-        || {
-            format!(
-                "must be 0 (protocol release) or 800..2200, got {}",
-                cmd.release_us
-            )
-        },
+        cmd.sink != crate::command::SinkKind::Mavlink,
+        "command.sink",
+        || format!("\"mavlink\" {}", crate::command::MAVLINK_SINK_REFUSED),
+    )?;
+    Endpoint::parse(&cmd.msp_endpoint, cmd.msp_baud).map_err(|reason| Invalid {
+        key: "command.msp_endpoint",
+        reason,
+    })?;
+    check(
+        cmd.msp_endpoint != m.endpoint,
+        "command.msp_endpoint",
+        || "must be a different port from mavlink.endpoint".into(),
+    )?;
+    check(
+        (20_000..=1_000_000).contains(&cmd.confirm_within_us),
+        "command.confirm_within_us",
+        || format!("must be 20 ms to 1 s, got {}", cmd.confirm_within_us),
+    )?;
+    check(
+        (10_000..=5_000_000).contains(&cmd.msp_timeout_us),
+        "command.msp_timeout_us",
+        || format!("must be 10 ms to 5 s, got {}", cmd.msp_timeout_us),
+    )?;
+    check(
+        (0..=5_000_000).contains(&cmd.warmup_margin_us),
+        "command.warmup_margin_us",
+        || format!("must be 0 to 5 s, got {}", cmd.warmup_margin_us),
     )
 }
 
 fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
     let g = &c.gate;
     check(
-        (1..=18).contains(&g.switch_channel),
+        (5..=18).contains(&g.switch_channel),
         "gate.switch_channel",
-        || format!("must be an RC channel 1 to 18, got {}", g.switch_channel),
+        || {
+            format!(
+                "must be an AUX channel 5 to 18 (iNav binds its MSP RC OVERRIDE mode to AUX channels), got {}",
+                g.switch_channel
+            )
+        },
     )?;
     check(
         g.auto_min_us <= g.auto_max_us && g.auto_min_us >= 800 && g.auto_max_us <= 2200,
@@ -429,11 +442,12 @@ fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
         })?;
     }
     let m = &c.manoeuvre;
-    check(
-        (1..=18).contains(&m.roll_channel),
-        "manoeuvre.roll_channel",
-        || format!("must be an RC channel 1 to 18, got {}", m.roll_channel),
-    )?;
+    check(m.roll_channel == 1, "manoeuvre.roll_channel", || {
+        format!(
+            "must be 1: iNav's roll is its channel 1 whatever the radio's order (faithd reads iNav's channel map), got {}",
+            m.roll_channel
+        )
+    })?;
     check(
         m.roll_channel != g.switch_channel,
         "manoeuvre.roll_channel",
@@ -608,6 +622,11 @@ mod tests {
             ),
             ("[gate]\nattitude_stale_us = 0\n", "gate.attitude_stale_us"),
             ("[manoeuvre]\nroll_channel = 6\n", "manoeuvre.roll_channel"),
+            ("[command]\nsink = \"mavlink\"\n", "command.sink"),
+            (
+                "[command]\nconfirm_within_us = 5000000\n",
+                "command.confirm_within_us",
+            ),
             (
                 "[manoeuvre]\ndeflection_us = 700\n",
                 "manoeuvre.deflection_us",

@@ -383,6 +383,19 @@ enum Command {
         /// Path to faithd.toml.
         path: PathBuf,
     },
+    /// Read the flight controller's set-up over its MSP port (`command.msp_endpoint`)
+    /// and say whether faithd's roll route can work, naming the iNav CLI line that
+    /// fixes each problem. Exit 0 when it can, 2 when it is refused, 1 when the flight
+    /// controller cannot be read. `faithd run` does the same check before its gate
+    /// can open.
+    CheckFc {
+        /// Path to faithd.toml.
+        #[arg(long)]
+        config: PathBuf,
+        /// One JSON object instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 #[derive(Subcommand)]
@@ -589,6 +602,73 @@ fn run(path: &std::path::Path) -> ExitCode {
     }
 }
 
+fn check_fc(path: &std::path::Path, json: bool) -> ExitCode {
+    use faithd::command::fc_check;
+    let config = match FaithdConfig::load(path) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let report = match fc_check::check_over_msp(&config) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!(
+                "error: cannot read the flight controller on {}: {e}",
+                config.command.msp_endpoint
+            );
+            return ExitCode::FAILURE;
+        }
+    };
+    if json {
+        let items: Vec<_> = report
+            .items
+            .iter()
+            .map(|i| {
+                serde_json::json!({
+                    "check": i.what, "found": i.found, "ok": i.problem.is_none(),
+                    "problem": i.problem, "fix": i.fix,
+                })
+            })
+            .collect();
+        let route = report.route.map(|r| {
+            serde_json::json!({
+                "warmup_us": r.warmup_us,
+                "hold_after_stop_us": r.hold_after_stop_us,
+                "attitude_period_us": r.attitude_period_us,
+                "rc_period_us": r.rc_period_us,
+                "roll_frame_index": r.roll_frame_index,
+            })
+        });
+        println!(
+            "{}",
+            serde_json::json!({"ok": report.route.is_some(), "checks": items, "route": route})
+        );
+    } else {
+        for i in &report.items {
+            match &i.problem {
+                None => println!("ok    {}: {}", i.what, i.found),
+                Some(p) => {
+                    println!("FAIL  {}: {}: {p}", i.what, i.found);
+                    if let Some(fix) = &i.fix {
+                        println!("      fix (iNav CLI): {fix}");
+                    }
+                }
+            }
+        }
+        match report.route {
+            Some(_) => println!("flight controller set-up: ok for faithd's roll route"),
+            None => println!("flight controller set-up: refused; faithd will not command"),
+        }
+    }
+    if report.route.is_some() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(2)
+    }
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // The experiment flies the daemon a hundred times: only its warnings, by default.
@@ -671,6 +751,7 @@ fn main() -> ExitCode {
                 json,
             ),
         },
+        Command::CheckFc { config, json } => check_fc(&config, json),
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());

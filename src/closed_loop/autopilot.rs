@@ -1,8 +1,8 @@
-//! A simulated iNav on a loopback UDP socket: real MAVLink 2 bytes to and from the
-//! daemon. It reports HEARTBEAT (armed), ATTITUDE at 50 Hz from the simulated
-//! vehicle and RC_CHANNELS at 20 Hz with the pilot's switch, and honours
-//! RC_CHANNELS_OVERRIDE the way iNav's MAVLink receiver does: a channel takes any
-//! value but 0 and 65535, and keeps it until the next one (iNav has no release).
+//! A simulated iNav: MAVLink telemetry on a loopback UDP socket (HEARTBEAT, ATTITUDE
+//! and RC_CHANNELS every 40 ms, iNav's fastest stream) and an MSP port on loopback
+//! TCP that takes faithd's roll stream the way iNav's MSP RC override does
+//! ([`super::inav_msp`]). Like iNav with a radio receiver, it ignores
+//! RC_CHANNELS_OVERRIDE.
 
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -11,8 +11,10 @@ use std::time::Duration;
 
 use mavlink::dialects::common::*;
 use mavlink::{MavHeader, MavlinkVersion};
-use tokio::net::UdpSocket;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, UdpSocket};
 
+use super::inav_msp::{InavMsp, Setup};
 use super::physics::Shared;
 use crate::daemon::clock::DaemonClock;
 
@@ -21,7 +23,7 @@ const BOOT_OFFSET_MS: i64 = 73_000;
 
 pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
     let mut peer: Option<SocketAddr> = None;
-    let mut tick = tokio::time::interval(Duration::from_millis(20));
+    let mut tick = tokio::time::interval(Duration::from_millis(40));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut n = 0u64;
     let mut seq = 0u8;
@@ -31,12 +33,9 @@ pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
             got = socket.recv_from(&mut buf) => {
                 let Ok((len, from)) = got else { continue };
                 let mut reader = mavlink::MavlinkReader::new(&buf[..len]);
-                while let Ok((header, msg)) = reader.read_any_message::<MavMessage>() {
+                while let Ok((header, _)) = reader.read_any_message::<MavMessage>() {
                     if header.component_id == 191 {
                         peer = Some(from);
-                    }
-                    if let MavMessage::RC_CHANNELS_OVERRIDE(o) = msg {
-                        receive_override(&shared, &clock, o.chan1_raw);
                     }
                 }
             }
@@ -47,7 +46,7 @@ pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
                 for msg in [attitude, rc_channels(&clock, roll_us, switch_us)] {
                     encode(&mut out, &mut seq, &msg);
                 }
-                if n.is_multiple_of(10) {
+                if n.is_multiple_of(25) {
                     encode(&mut out, &mut seq, &heartbeat());
                 }
                 n += 1;
@@ -57,20 +56,62 @@ pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
     }
 }
 
-fn receive_override(shared: &Shared, clock: &DaemonClock, chan1_raw: u16) {
-    if chan1_raw == 0 || chan1_raw == u16::MAX {
-        return;
+/// The pilot's roll stick in the simulated flights: centred.
+const PILOT_ROLL_US: u16 = 1500;
+
+/// iNav's MSP port on a loopback TCP listener: one connection at a time (faithd
+/// reopens after a loss), the roll iNav uses published to the physics every 5 ms.
+pub async fn run_msp(listener: TcpListener, shared: Arc<Shared>, clock: DaemonClock) {
+    let mut fc = InavMsp::new(Setup::default());
+    loop {
+        let Ok((mut stream, _)) = listener.accept().await else {
+            return;
+        };
+        let _ = stream.set_nodelay(true);
+        let mut tick = tokio::time::interval(Duration::from_millis(5));
+        let mut buf = [0u8; 1024];
+        loop {
+            tokio::select! {
+                got = stream.read(&mut buf) => {
+                    let n = match got { Ok(0) | Err(_) => break, Ok(n) => n };
+                    let now_us = clock.now_us();
+                    let (_, roll_us, switch_us) = telemetry(&shared, &clock);
+                    let rc = rc_in_use(roll_us, switch_us);
+                    let out = fc.receive(&buf[..n], now_us, rc);
+                    if stream.write_all(&out).await.is_err() {
+                        break;
+                    }
+                    publish_roll(&fc, &shared, &clock);
+                }
+                _ = tick.tick() => publish_roll(&fc, &shared, &clock),
+            }
+        }
     }
-    shared.roll_us.store(chan1_raw, Ordering::Relaxed);
-    if chan1_raw != 1500 {
-        // The first deflected frame after a manoeuvre started: its arrival time.
+}
+
+fn publish_roll(fc: &InavMsp, shared: &Shared, clock: &DaemonClock) {
+    let now_us = clock.now_us();
+    let switch_us = if shared.switch_auto.load(Ordering::Relaxed) {
+        1900
+    } else {
+        1000
+    };
+    let roll_us = fc.roll_in_use(now_us, switch_us, PILOT_ROLL_US);
+    shared.roll_us.store(roll_us, Ordering::Relaxed);
+    if roll_us != PILOT_ROLL_US {
+        // The first moment iNav used a deflected roll after a manoeuvre started.
         let _ = shared.first_roll_rx_us.compare_exchange(
             i64::MIN,
-            clock.now_us(),
+            now_us,
             Ordering::Relaxed,
             Ordering::Relaxed,
         );
     }
+}
+
+/// The eight channels iNav reports using (MSP_RC and RC_CHANNELS alike).
+fn rc_in_use(roll_us: u16, switch_us: u16) -> [u16; 8] {
+    [roll_us, 1500, 1450, 1500, 1900, switch_us, 1000, 1000]
 }
 
 fn telemetry(shared: &Shared, clock: &DaemonClock) -> (MavMessage, u16, u16) {

@@ -5,6 +5,7 @@
 
 pub mod autopilot;
 pub mod experiment;
+pub mod inav_msp;
 pub mod physics;
 pub mod plot;
 pub mod straight;
@@ -122,11 +123,13 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     let port = socket.local_addr()?.port();
     let shared = Arc::new(Shared::new(physics::initial_quad(spec).state()));
     tokio::spawn(autopilot::run(socket, shared.clone(), clock));
+    let msp = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
+    let msp_port = msp.local_addr()?.port();
+    tokio::spawn(autopilot::run_msp(msp, shared.clone(), clock));
 
     let mut config = FaithdConfig::default();
     config.mavlink.endpoint = format!("udpout:127.0.0.1:{port}");
-    // iNav's MAVLink receiver has no release value: faithd sends the centre.
-    config.command.release_us = config.manoeuvre.neutral_us;
+    config.command.msp_endpoint = format!("tcp:127.0.0.1:{msp_port}");
     // Simulated flights are not recorded.
     config.record.enabled = false;
     let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud)
@@ -143,8 +146,11 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     };
     let start_us = clock.now_us();
     let done = shared.clone();
-    daemon::serve(config, endpoint, None, hooks, async move {
-        done.done.notified().await
+    let msp_endpoint = Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud)
+        .map_err(std::io::Error::other)?;
+    daemon::serve(config, endpoint, msp_endpoint, hooks, async move {
+        done.done.notified().await;
+        "the flight ended"
     })
     .await;
 

@@ -5,11 +5,14 @@
 //!                                        ^   (status)                     |   ^
 //!              link task --attitude------'        vehicle state ----------'   |
 //!                 ^  \---------------------------------------------------------'
-//!                 '------ RC_CHANNELS_OVERRIDE (or the MSP sink) <-- commands
+//!                                                     MSP roll stream <---'
+//!                                                   (to iNav's MSP port; MSP_RC back)
 //! ```
 //!
 //! The commander evaluates the safety gate whenever anything it depends on changes
 //! and at every send period, so a closing gate releases the roll within one period.
+//! It sets the value the MSP stream holds (the centre, or the roll) and compares it
+//! with the roll channel iNav reports using: a roll that does not show is a fault.
 //! systemd hears READY once the autopilot link is up and the pipeline has run, and
 //! the watchdog is fed only while the pipeline keeps finishing cycles.
 
@@ -26,13 +29,16 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
-use crate::command::{self, SinkKind};
+use crate::command::fc_check::Expectations;
+use crate::command::stream::RollReport;
+use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
 use crate::decide::Action;
 use crate::event::Event;
 use crate::link::endpoint::Endpoint;
 use crate::link::{self, AttitudeLog, LinkOutputs};
-use crate::safety::gate::{self, GateState, PipelineStatus};
+use crate::safety::confirm::{RollConfirm, Verdict};
+use crate::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
 use crate::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
 use crate::safety::vehicle::VehicleState;
 use clock::DaemonClock;
@@ -80,17 +86,11 @@ pub fn run(config: FaithdConfig) -> Result<(), DaemonError> {
                 reason,
             }
         })?;
-    let msp_endpoint = match config.command.sink {
-        SinkKind::Mavlink => None,
-        SinkKind::Msp => Some(
-            Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud).map_err(
-                |reason| DaemonError::Config {
-                    key: "command.msp_endpoint",
-                    reason,
-                },
-            )?,
-        ),
-    };
+    let msp_endpoint = Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud)
+        .map_err(|reason| DaemonError::Config {
+            key: "command.msp_endpoint",
+            reason,
+        })?;
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -161,9 +161,9 @@ pub enum Observation {
 pub async fn serve(
     config: FaithdConfig,
     endpoint: Endpoint,
-    msp_endpoint: Option<Endpoint>,
+    msp_endpoint: Endpoint,
     hooks: Hooks,
-    shutdown: impl std::future::Future<Output = ()>,
+    shutdown: impl std::future::Future<Output = &'static str>,
 ) {
     let Hooks {
         clock,
@@ -191,7 +191,8 @@ pub async fn serve(
     let recorder = record::start(&config.record, &window_log_header);
     let (vehicle_tx, vehicle_rx) = watch::channel(VehicleState::default());
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
-    let (mav_out_tx, mav_out_rx) = mpsc::channel(64);
+    // faithd sends only its own HEARTBEAT on the MAVLink link; nothing else queues.
+    let (_mav_out_tx, mav_out_rx) = mpsc::channel(1);
     tokio::spawn(link::run(
         config.mavlink.clone(),
         endpoint,
@@ -231,19 +232,7 @@ pub async fn serve(
         })
         .expect("spawn pipeline thread");
 
-    let sink = match msp_endpoint {
-        None => Sink::Mavlink(mav_out_tx),
-        Some(ep) => {
-            let (tx, rx) = mpsc::channel(64);
-            tokio::spawn(command::run_msp(
-                ep,
-                rx,
-                Duration::from_micros(config.mavlink.reconnect_min_us.max(1) as u64),
-                Duration::from_micros(config.mavlink.reconnect_max_us.max(1) as u64),
-            ));
-            Sink::Msp(tx)
-        }
-    };
+    let stream = stream::spawn(msp_endpoint, stream_settings(&config), clock);
 
     tokio::spawn(systemd_notifier(
         clock,
@@ -257,57 +246,64 @@ pub async fn serve(
         vehicle_rx,
         status_rx,
         decision_rx,
-        &sink,
+        &stream,
         observer,
     );
     tokio::select! {
         _ = commander => {}
-        _ = shutdown => tracing::info!("shutdown requested"),
+        why = shutdown => tracing::info!("shutdown requested ({why})"),
     }
-    // Whatever state the manoeuvre was in, the pilot gets the roll channel back.
-    let release = Command::Release {
-        channel: config.manoeuvre.roll_channel,
-    };
-    sink.send(release, &config).await;
-    tokio::time::sleep(Duration::from_millis(50)).await;
+    // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
+    // centre, `release_repeats` times, each frame flushed, before faithd exits.
+    release_on_exit(&stream, config.manoeuvre.release_repeats).await;
     if let Some(r) = &recorder {
         r.finish();
     }
-    tracing::info!("faithd stopped; roll channel released");
+    tracing::info!("faithd stopped");
 }
 
-/// Where commands go.
-enum Sink {
-    Mavlink(mpsc::Sender<mavlink::dialects::common::MavMessage>),
-    Msp(mpsc::Sender<Vec<u8>>),
-}
-
-impl Sink {
-    async fn send(&self, cmd: Command, config: &FaithdConfig) {
-        let release_us = config.command.release_us;
-        let delivered = match self {
-            Sink::Mavlink(tx) => tx
-                .send(command::mavlink_override(
-                    cmd,
-                    release_us,
-                    config.mavlink.autopilot_system_id,
-                    1,
-                ))
-                .await
-                .is_ok(),
-            Sink::Msp(tx) => tx
-                .send(command::msp_override(
-                    cmd,
-                    release_us,
-                    config.manoeuvre.neutral_us,
-                ))
-                .await
-                .is_ok(),
-        };
-        if !delivered {
-            tracing::error!(?cmd, "command sink has stopped");
-        }
+fn stream_settings(config: &FaithdConfig) -> StreamSettings {
+    let us = |v: i64| Duration::from_micros(v.max(1) as u64);
+    StreamSettings {
+        neutral_us: config.manoeuvre.neutral_us,
+        period: us(config.manoeuvre.resend_period_us),
+        reply_timeout: us(config.command.msp_timeout_us),
+        warmup_margin_us: config.command.warmup_margin_us,
+        reconnect_min: us(config.mavlink.reconnect_min_us),
+        reconnect_max: us(config.mavlink.reconnect_max_us),
+        recheck: Duration::from_secs(5),
+        expect: Expectations::from_config(config),
     }
+}
+
+/// Ends the stream with the centre and says in the journal what reached the wire.
+async fn release_on_exit(stream: &StreamHandle, repeats: u32) {
+    let (done, answer) = tokio::sync::oneshot::channel();
+    if stream
+        .stop
+        .send(StopRequest { repeats, done })
+        .await
+        .is_err()
+    {
+        tracing::error!("roll channel release not written: the MSP stream task has ended");
+        return;
+    }
+    match tokio::time::timeout(Duration::from_secs(2), answer).await {
+        Ok(Ok(Ok(n))) => {
+            tracing::info!("roll channel released: {n} centre frames written to iNav")
+        }
+        Ok(Ok(Err(why))) => tracing::error!(
+            "roll channel release not written ({why}): iNav keeps faithd's last value until its MSP override times out"
+        ),
+        _ => tracing::error!("roll channel release not confirmed: the MSP stream did not answer"),
+    }
+}
+
+/// The commander's view of the stream: what it holds, and whether a roll shows.
+struct RollCheck {
+    confirm: RollConfirm,
+    /// Latched fault: held until the pilot leaves AUTO.
+    fault: bool,
 }
 
 async fn commander_task(
@@ -316,10 +312,16 @@ async fn commander_task(
     mut vehicle_rx: watch::Receiver<VehicleState>,
     mut status_rx: watch::Receiver<PipelineStatus>,
     mut decision_rx: mpsc::Receiver<cycle::RollDecision>,
-    sink: &Sink,
+    stream: &StreamHandle,
     observer: Option<mpsc::UnboundedSender<Observation>>,
 ) {
     let mut commander = Commander::new(config.manoeuvre);
+    let mut stream_rx = stream.status.clone();
+    let mut check = RollCheck {
+        confirm: RollConfirm::new(config.command.confirm_within_us),
+        fault: false,
+    };
+    let mut last_report: Option<RollReport> = None;
     // Woken four times per send period (and at every input change), so a re-send or
     // a staleness limit is acted on at most a quarter period late.
     let period = Duration::from_micros((config.manoeuvre.resend_period_us / 4).max(1000) as u64);
@@ -332,6 +334,7 @@ async fn commander_task(
             _ = tick.tick() => {}
             Ok(()) = vehicle_rx.changed() => {}
             Ok(()) = status_rx.changed() => {}
+            Ok(()) = stream_rx.changed() => {}
             Some(cycle::RollDecision { decision: d, last_event_us }) = decision_rx.recv() => {
                 if let Action::Roll { direction, duration_us } = d.action {
                     request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us, d));
@@ -342,7 +345,45 @@ async fn commander_task(
         let now_us = clock.now_us();
         let vehicle = *vehicle_rx.borrow_and_update();
         let status = *status_rx.borrow_and_update();
-        let gate = gate::evaluate(&config.gate, &vehicle, &status, now_us);
+        let streamed = *stream_rx.borrow_and_update();
+        if let Some(report) = streamed.last_report.filter(|r| Some(*r) != last_report) {
+            last_report = Some(report);
+            if let Verdict::Confirmed { after_us } =
+                check.confirm.report(report.roll_us, report.t_us)
+            {
+                tracing::info!(
+                    roll_us = report.roll_us,
+                    "roll in effect on the flight controller {} ms after it was commanded",
+                    after_us / 1000
+                );
+            }
+        }
+        if let Verdict::NotInEffect {
+            commanded_us,
+            reported_us,
+            waited_us,
+        } = check.confirm.check(now_us)
+        {
+            check.fault = true;
+            check.confirm.stop();
+            tracing::error!(
+                commanded_us,
+                ?reported_us,
+                "roll not in effect on the flight controller: commanded {commanded_us} us on roll, iNav reports {} for {} ms; closing the gate until the switch leaves AUTO",
+                reported_us.map_or("nothing".into(), |v| format!("{v} us")),
+                waited_us / 1000
+            );
+        }
+        let path = CommandPathStatus {
+            setup_refused: streamed.setup_refused,
+            ready_at_us: streamed.ready_at_us,
+            roll_not_in_effect: check.fault,
+        };
+        let gate = gate::evaluate(&config.gate, &vehicle, &status, &path, now_us);
+        if check.fault && matches!(gate, GateState::Closed(Blocker::SwitchNotAuto { .. })) {
+            tracing::info!("switch out of AUTO: the roll fault is cleared");
+            check.fault = false;
+        }
         if last_gate.map(|g| g.is_open()) != Some(gate.is_open())
             || matches!((last_gate, gate), (Some(GateState::Closed(a)), GateState::Closed(b)) if std::mem::discriminant(&a) != std::mem::discriminant(&b))
         {
@@ -369,25 +410,40 @@ async fn commander_task(
                         });
                     }
                     request = None;
+                    check
+                        .confirm
+                        .start(commander.roll_value_us(direction), now_us);
                     tracing::info!(
                         ?direction,
                         duration_ms = duration_us / 1000,
                         "manoeuvre started: roll {direction:?}"
                     )
                 }
-                Transition::Completed => tracing::info!("manoeuvre completed: roll released"),
-                Transition::Cut => tracing::warn!(
-                    "manoeuvre cut: roll released because {}",
-                    match gate {
-                        GateState::Closed(b) => b.to_string(),
-                        GateState::Open => "?".into(),
-                    }
-                ),
+                Transition::Completed => {
+                    check.confirm.stop();
+                    tracing::info!("manoeuvre completed: roll released")
+                }
+                Transition::Cut => {
+                    check.confirm.stop();
+                    tracing::warn!(
+                        "manoeuvre cut: roll released because {}",
+                        match gate {
+                            GateState::Closed(b) => b.to_string(),
+                            GateState::Open => "?".into(),
+                        }
+                    )
+                }
             }
         }
         if let Some(cmd) = step.command {
             tracing::debug!(?cmd, "command");
-            sink.send(cmd, config).await;
+            let held_us = match cmd {
+                Command::Roll { value_us, .. } => value_us,
+                Command::Release { .. } => config.manoeuvre.neutral_us,
+            };
+            stream
+                .held
+                .send_if_modified(|v| std::mem::replace(v, held_us) != held_us);
         }
     }
 }
@@ -427,11 +483,16 @@ async fn systemd_notifier(
     }
 }
 
-async fn shutdown_signal() {
+/// SIGTERM (systemd stop), SIGINT (Ctrl-C) or SIGHUP (the terminal went away):
+/// every one ends in the release, never in an exit without it.
+async fn shutdown_signal() -> &'static str {
     use tokio::signal::unix::{SignalKind, signal};
     let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
+    let mut int = signal(SignalKind::interrupt()).expect("SIGINT handler");
+    let mut hup = signal(SignalKind::hangup()).expect("SIGHUP handler");
     tokio::select! {
-        _ = term.recv() => {}
-        _ = tokio::signal::ctrl_c() => {}
+        _ = term.recv() => "SIGTERM",
+        _ = int.recv() => "SIGINT",
+        _ = hup.recv() => "SIGHUP",
     }
 }

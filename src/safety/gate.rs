@@ -60,6 +60,19 @@ pub enum PipelineProblem {
     NoAttitude,
 }
 
+/// What the roll command path (the MSP stream to iNav) last reported.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CommandPathStatus {
+    /// The flight controller's set-up was read and refused (the journal has why).
+    pub setup_refused: bool,
+    /// Daemon time from which iNav applies the stream: the stream started plus
+    /// iNav's own recovery delay. `None` while the port is closed or unchecked.
+    pub ready_at_us: Option<i64>,
+    /// A roll did not take effect on the flight controller; held until the pilot
+    /// takes the switch out of AUTO.
+    pub roll_not_in_effect: bool,
+}
+
 /// The first condition that keeps the gate closed.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "kind")]
@@ -92,6 +105,12 @@ pub enum Blocker {
     PipelineUnhealthy {
         problem: PipelineProblem,
     },
+    FcSetupRefused,
+    CommandPortDown,
+    OverrideWarmingUp {
+        remaining_us: i64,
+    },
+    RollNotInEffect,
 }
 
 impl std::fmt::Display for Blocker {
@@ -124,6 +143,22 @@ impl std::fmt::Display for Blocker {
                 )
             }
             Blocker::PipelineUnhealthy { problem } => write!(f, "pipeline unhealthy: {problem:?}"),
+            Blocker::FcSetupRefused => {
+                write!(
+                    f,
+                    "flight controller set-up refused (see `faithd check-fc`)"
+                )
+            }
+            Blocker::CommandPortDown => write!(f, "MSP command port not streaming"),
+            Blocker::OverrideWarmingUp { remaining_us } => write!(
+                f,
+                "iNav applies the MSP override only after its recovery delay ({} ms to go)",
+                remaining_us / 1000
+            ),
+            Blocker::RollNotInEffect => write!(
+                f,
+                "the last roll did not take effect on the flight controller (switch to MANUAL and back once fixed)"
+            ),
         }
     }
 }
@@ -147,12 +182,35 @@ pub fn evaluate(
     config: &GateConfig,
     vehicle: &VehicleState,
     pipeline: &PipelineStatus,
+    command: &CommandPathStatus,
     now_us: i64,
 ) -> GateState {
-    match first_blocker(config, vehicle, pipeline, now_us) {
+    match first_blocker(config, vehicle, pipeline, now_us)
+        .or_else(|| command_blocker(command, now_us))
+    {
         Some(b) => GateState::Closed(b),
         None => GateState::Open,
     }
+}
+
+/// The command path comes last: its blockers matter only once the vehicle and the
+/// pipeline would allow a roll.
+fn command_blocker(command: &CommandPathStatus, now_us: i64) -> Option<Blocker> {
+    if command.setup_refused {
+        return Some(Blocker::FcSetupRefused);
+    }
+    let Some(ready_at_us) = command.ready_at_us else {
+        return Some(Blocker::CommandPortDown);
+    };
+    if now_us < ready_at_us {
+        return Some(Blocker::OverrideWarmingUp {
+            remaining_us: ready_at_us - now_us,
+        });
+    }
+    if command.roll_not_in_effect {
+        return Some(Blocker::RollNotInEffect);
+    }
+    None
 }
 
 fn first_blocker(
@@ -213,6 +271,60 @@ mod tests {
     use super::*;
     use crate::safety::vehicle::{Heartbeat, RcChannels};
 
+    const READY: CommandPathStatus = CommandPathStatus {
+        setup_refused: false,
+        ready_at_us: Some(0),
+        roll_not_in_effect: false,
+    };
+
+    #[test]
+    fn the_command_path_closes_it_last_and_names_why() {
+        let cfg = GateConfig::default();
+        let now = 10_000_000;
+        let (v, p) = all_good(now);
+        let cases = [
+            (
+                CommandPathStatus {
+                    setup_refused: true,
+                    ..READY
+                },
+                "fc_setup_refused",
+            ),
+            (
+                CommandPathStatus {
+                    ready_at_us: None,
+                    ..READY
+                },
+                "command_port_down",
+            ),
+            (
+                CommandPathStatus {
+                    ready_at_us: Some(now + 300_000),
+                    ..READY
+                },
+                "override_warming_up",
+            ),
+            (
+                CommandPathStatus {
+                    roll_not_in_effect: true,
+                    ..READY
+                },
+                "roll_not_in_effect",
+            ),
+        ];
+        for (path, kind) in cases {
+            let state = evaluate(&cfg, &v, &p, &path, now);
+            assert_eq!(serde_json::to_value(state).unwrap()["kind"], kind);
+        }
+        let (mut manual, _) = all_good(now);
+        manual.rc.as_mut().unwrap().values_us[5] = 1000;
+        let state = evaluate(&cfg, &manual, &p, &cases[3].0, now);
+        assert!(
+            matches!(state, GateState::Closed(Blocker::SwitchNotAuto { .. })),
+            "the switch is named before the command path: {state:?}"
+        );
+    }
+
     fn all_good(now_us: i64) -> (VehicleState, PipelineStatus) {
         let mut channels = [1500u16; 18];
         channels[5] = 1900;
@@ -242,7 +354,7 @@ mod tests {
         let cfg = GateConfig::default();
         let now = 10_000_000;
         let (v, p) = all_good(now);
-        assert_eq!(evaluate(&cfg, &v, &p, now), GateState::Open);
+        assert_eq!(evaluate(&cfg, &v, &p, &READY, now), GateState::Open);
     }
 
     #[test]
@@ -282,7 +394,7 @@ mod tests {
         for (breaker, kind) in cases {
             let (mut v, mut p) = all_good(now);
             breaker(&mut v, &mut p);
-            let state = evaluate(&cfg, &v, &p, now);
+            let state = evaluate(&cfg, &v, &p, &READY, now);
             let json = serde_json::to_value(state).unwrap();
             assert_eq!(json["kind"], kind, "{state:?}");
         }
@@ -295,7 +407,11 @@ mod tests {
         for (value, open) in [(1699, false), (1700, true), (2100, true), (2101, false)] {
             let (mut v, p) = all_good(now);
             v.rc.as_mut().unwrap().values_us[5] = value;
-            assert_eq!(evaluate(&cfg, &v, &p, now).is_open(), open, "{value}");
+            assert_eq!(
+                evaluate(&cfg, &v, &p, &READY, now).is_open(),
+                open,
+                "{value}"
+            );
         }
     }
 }

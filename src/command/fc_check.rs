@@ -1,0 +1,612 @@
+//! Does the flight controller's set-up let faithd's roll route work?
+//!
+//! iNav decides on its own whether an MSP roll override is applied, when, and for
+//! how long it outlives faithd. Every fact below was read from iNav 9.1's source and
+//! measured on its SITL build (README, "Setting up iNav"); a set-up that is known to
+//! fail is refused with the iNav CLI line that fixes it, before the gate can open.
+//! `read` talks MSP; `evaluate` is pure and unit-tested.
+
+use std::time::Duration;
+
+use super::msp_port::{self, MspError, MspPort};
+
+/// iNav's mode ids (fc/fc_msp_box.c, permanent ids).
+const MODE_ARM: u8 = 0;
+const MODE_MSP_RC_OVERRIDE: u8 = 50;
+/// iNav's first AUX channel is channel 5 (four flight channels before it).
+const FIRST_AUX_CHANNEL: u8 = 5;
+/// iNav's telemetry task ticks at 50 Hz (telemetry/mavlink.c, TELEMETRY_MAVLINK_MAXRATE).
+const MAVLINK_TICK_US: i64 = 20_000;
+/// rx/rx.h and flight/failsafe.h: PERIOD_RXDATA_RECOVERY and PERIOD_RXDATA_FAILURE.
+const RXDATA_PERIOD_US: i64 = 200_000;
+/// receiver_type's table in fc/settings.yaml.
+const RECEIVER_TYPES: [&str; 4] = ["NONE", "SERIAL", "MSP", "SIM (SITL)"];
+/// serial_rx's table in fc/settings.yaml.
+const SERIAL_RX: [&str; 15] = [
+    "SPEK1024",
+    "SPEK2048",
+    "SBUS",
+    "SUMD",
+    "IBUS",
+    "JETIEXBUS",
+    "CRSF",
+    "FPORT",
+    "SBUS_FAST",
+    "FPORT2",
+    "SRXL2",
+    "GHST",
+    "MAVLINK",
+    "FBUS",
+    "SBUS2",
+];
+
+/// One mode slot of iNav's `aux` table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ModeRange {
+    pub slot: usize,
+    pub mode_id: u8,
+    /// 0 = AUX1 = channel 5.
+    pub aux_index: u8,
+    pub start_step: u8,
+    pub end_step: u8,
+}
+
+impl ModeRange {
+    /// A range is in use when it is not empty (rc_modes.h, IS_RANGE_USABLE).
+    pub fn usable(&self) -> bool {
+        self.start_step < self.end_step
+    }
+
+    pub fn channel(&self) -> u8 {
+        self.aux_index.saturating_add(FIRST_AUX_CHANNEL)
+    }
+
+    /// Lowest channel value that activates the mode (900 + 25 per step).
+    pub fn low_us(&self) -> u16 {
+        900 + 25 * u16::from(self.start_step)
+    }
+
+    /// Highest channel value that activates it: iNav's upper bound is exclusive.
+    pub fn high_us(&self) -> u16 {
+        900 + 25 * u16::from(self.end_step) - 1
+    }
+}
+
+/// What faithd reads from the flight controller.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FcSettings {
+    pub variant: String,
+    pub version: (u8, u8, u8),
+    pub receiver_type: u8,
+    pub serialrx_provider: u8,
+    pub msp_override_channels: u32,
+    pub failsafe_delay_ds: u8,
+    pub failsafe_recovery_delay_ds: u8,
+    pub mavlink_extra1_rate: u8,
+    pub mavlink_rc_chan_rate: u8,
+    pub mavlink_sysid: u8,
+    /// Radio channel (0-based) feeding iNav's roll, pitch, yaw, throttle.
+    pub rcmap: [u8; 4],
+    pub modes: Vec<ModeRange>,
+}
+
+/// What the check needs from faithd's own configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Expectations {
+    pub switch_channel: u8,
+    pub auto_min_us: u16,
+    pub auto_max_us: u16,
+    pub attitude_stale_us: i64,
+    pub rc_stale_us: i64,
+    pub autopilot_system_id: u8,
+}
+
+impl Expectations {
+    pub fn from_config(c: &crate::config::FaithdConfig) -> Self {
+        Self {
+            switch_channel: c.gate.switch_channel,
+            auto_min_us: c.gate.auto_min_us,
+            auto_max_us: c.gate.auto_max_us,
+            attitude_stale_us: c.gate.attitude_stale_us,
+            rc_stale_us: c.gate.rc_stale_us,
+            autopilot_system_id: c.mavlink.autopilot_system_id,
+        }
+    }
+}
+
+/// One line of the report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CheckItem {
+    pub what: &'static str,
+    /// What the flight controller has, in its own terms.
+    pub found: String,
+    /// Why that fails, when it does.
+    pub problem: Option<String>,
+    /// The iNav CLI line(s) that fix it.
+    pub fix: Option<String>,
+}
+
+/// Figures of a set-up that passed, which the roll stream and the gate use.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RouteFacts {
+    /// Index in MSP_SET_RAW_RC of the radio channel that feeds iNav's roll.
+    pub roll_frame_index: usize,
+    /// Fresh frames iNav needs before it applies the override (its own failsafe
+    /// recovery: 200 ms + failsafe_recovery_delay).
+    pub warmup_us: i64,
+    /// How long iNav keeps faithd's last value after frames stop (200 ms +
+    /// failsafe_delay): the bound on a roll outliving a killed faithd.
+    pub hold_after_stop_us: i64,
+    /// Worst period of ATTITUDE and RC_CHANNELS at the configured rates.
+    pub attitude_period_us: i64,
+    pub rc_period_us: i64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FcReport {
+    pub items: Vec<CheckItem>,
+    /// `Some` only when every item passed.
+    pub route: Option<RouteFacts>,
+}
+
+impl FcReport {
+    pub fn problems(&self) -> impl Iterator<Item = &CheckItem> {
+        self.items.iter().filter(|i| i.problem.is_some())
+    }
+
+    /// One line naming every problem and its fix, for the journal.
+    pub fn summary(&self) -> String {
+        self.problems()
+            .map(|i| {
+                format!(
+                    "{}: {} ({}){}",
+                    i.what,
+                    i.problem.as_deref().unwrap_or(""),
+                    i.found,
+                    i.fix
+                        .as_deref()
+                        .map(|f| format!("; fix: {f}"))
+                        .unwrap_or_default()
+                )
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+}
+
+/// Period of a MAVLink stream at iNav rate setting `rate`: its scheduler re-arms a
+/// stream every 50 / rate ticks and counts one more tick before it fires again, so
+/// 50 gives 40 ms (25 Hz), 25 gives 60 ms, 10 gives 120 ms. `None` when off.
+pub fn mavlink_stream_period_us(rate: u8) -> Option<i64> {
+    (rate > 0).then(|| (50 / i64::from(rate.min(50)) + 1) * MAVLINK_TICK_US)
+}
+
+/// Judges the set-up. Pure.
+pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
+    let mut items = Vec::new();
+    let mut item = |what, found: String, problem: Option<String>, fix: Option<String>| {
+        items.push(CheckItem {
+            what,
+            found,
+            problem,
+            fix,
+        })
+    };
+
+    item(
+        "firmware",
+        format!(
+            "{} {}.{}.{}",
+            s.variant, s.version.0, s.version.1, s.version.2
+        ),
+        (s.variant != "INAV").then(|| "faithd's roll route is made for iNav".into()),
+        None,
+    );
+
+    let receiver = RECEIVER_TYPES
+        .get(usize::from(s.receiver_type))
+        .copied()
+        .unwrap_or("unknown");
+    let provider = SERIAL_RX
+        .get(usize::from(s.serialrx_provider))
+        .copied()
+        .unwrap_or("unknown");
+    let (problem, fix) = match receiver {
+        "MSP" => (
+            Some("iNav applies MSP RC override only when its receiver is not MSP (rx/rx.c); with an MSP receiver faithd's frame would replace the pilot's whole frame: throttle, arm and the switch".to_string()),
+            Some("set receiver_type = SERIAL and serialrx_provider = <your radio's protocol>".to_string()),
+        ),
+        "NONE" => (
+            Some("no receiver: the pilot's radio must reach iNav for the switch to work".to_string()),
+            Some("set receiver_type = SERIAL and serialrx_provider = <your radio's protocol>".to_string()),
+        ),
+        "SERIAL" | "SIM (SITL)" => (None, None),
+        _ => (Some("unknown receiver type".to_string()), None),
+    };
+    let found = if receiver == "SERIAL" {
+        format!("receiver_type = SERIAL, serialrx_provider = {provider}")
+    } else {
+        format!("receiver_type = {receiver}")
+    };
+    item("pilot's receiver", found, problem, fix);
+
+    item(
+        "override channels",
+        format!("msp_override_channels = {}", s.msp_override_channels),
+        (s.msp_override_channels != 1).then(|| {
+            "must be 1: roll alone (iNav's channel 1); any other bit lets faithd's frame drive another channel, and 0 lets it drive none".into()
+        }),
+        (s.msp_override_channels != 1).then(|| "set msp_override_channels = 1".into()),
+    );
+
+    let switch_aux = want.switch_channel.saturating_sub(FIRST_AUX_CHANNEL);
+    let free_slot = s
+        .modes
+        .iter()
+        .find(|m| !m.usable())
+        .map_or(s.modes.len(), |m| m.slot);
+    let auto_fix = format!(
+        "aux {free_slot} {MODE_MSP_RC_OVERRIDE} {switch_aux} {} {}",
+        want.auto_min_us, want.auto_max_us
+    );
+    let overrides: Vec<_> = s
+        .modes
+        .iter()
+        .filter(|m| m.usable() && m.mode_id == MODE_MSP_RC_OVERRIDE)
+        .collect();
+    let describe = |ms: &[&ModeRange]| {
+        ms.iter()
+            .map(|m| {
+                format!(
+                    "slot {} on channel {} at {}..{} us",
+                    m.slot,
+                    m.channel(),
+                    m.low_us(),
+                    m.high_us()
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let stray = overrides.iter().find(|m| {
+        m.channel() != want.switch_channel
+            || m.low_us() < want.auto_min_us
+            || m.high_us() > want.auto_max_us
+    });
+    let problem = if want.switch_channel < FIRST_AUX_CHANNEL {
+        Some(format!(
+            "faithd's switch (gate.switch_channel = {}) must be an AUX channel (5 or above)",
+            want.switch_channel
+        ))
+    } else if overrides.is_empty() {
+        Some("the MSP RC OVERRIDE mode is not on the pilot's switch: iNav would never apply faithd's roll".into())
+    } else {
+        stray.map(|m| {
+            format!(
+                "MSP RC OVERRIDE is active on channel {} at {}..{} us, outside faithd's AUTO (channel {} at {}..{} us): iNav would apply faithd's frames with the switch in MANUAL",
+                m.channel(),
+                m.low_us(),
+                m.high_us(),
+                want.switch_channel,
+                want.auto_min_us,
+                want.auto_max_us
+            )
+        })
+    };
+    let fix = problem.as_ref().map(|_| match stray {
+        Some(m) => format!("aux {} 0 0 900 900, then {auto_fix}", m.slot),
+        None => auto_fix.clone(),
+    });
+    let found = if overrides.is_empty() {
+        "MSP RC OVERRIDE not set".into()
+    } else {
+        format!("MSP RC OVERRIDE: {}", describe(&overrides))
+    };
+    item("override mode", found, problem, fix);
+
+    let arms: Vec<_> = s
+        .modes
+        .iter()
+        .filter(|m| m.usable() && m.mode_id == MODE_ARM)
+        .collect();
+    let arm_on_switch = arms.iter().find(|m| m.channel() == want.switch_channel);
+    item(
+        "arm switch",
+        if arms.is_empty() {
+            "ARM not on a switch".into()
+        } else {
+            format!("ARM: {}", describe(&arms))
+        },
+        arm_on_switch.map(|m| {
+            format!(
+                "ARM shares channel {} with faithd's AUTO switch: flipping to MANUAL to take control back would disarm (or AUTO would arm)",
+                m.channel()
+            )
+        }),
+        arm_on_switch.map(|m| format!("move ARM to its own switch: aux {} 0 <other aux channel> 1700 2100", m.slot)),
+    );
+
+    let attitude_period = mavlink_stream_period_us(s.mavlink_extra1_rate);
+    let rc_period = mavlink_stream_period_us(s.mavlink_rc_chan_rate);
+    let rate_item = |rate: u8, period: Option<i64>, stale_us: i64, key: &str, setting: &str| {
+        let found = match period {
+            Some(p) => format!("{setting} = {rate}: one every {} ms", p / 1000),
+            None => format!("{setting} = 0: not sent"),
+        };
+        // One more scheduler tick of jitter must still fit in the staleness limit.
+        let too_slow = period.is_none_or(|p| p + MAVLINK_TICK_US > stale_us);
+        let problem = too_slow.then(|| {
+            format!(
+                "faithd's {key} is {} ms: the stream must arrive at least one 20 ms tick sooner, or the gate closes between messages",
+                stale_us / 1000
+            )
+        });
+        (
+            found,
+            problem,
+            too_slow.then(|| format!("set {setting} = 50")),
+        )
+    };
+    let (found, problem, fix) = rate_item(
+        s.mavlink_extra1_rate,
+        attitude_period,
+        want.attitude_stale_us,
+        "gate.attitude_stale_us",
+        "mavlink_extra1_rate",
+    );
+    item("ATTITUDE rate", found, problem, fix);
+    let (found, problem, fix) = rate_item(
+        s.mavlink_rc_chan_rate,
+        rc_period,
+        want.rc_stale_us,
+        "gate.rc_stale_us",
+        "mavlink_rc_chan_rate",
+    );
+    item("RC_CHANNELS rate", found, problem, fix);
+
+    let sysid_wrong = s.mavlink_sysid != want.autopilot_system_id;
+    item(
+        "MAVLink system id",
+        format!("mavlink_sysid = {}", s.mavlink_sysid),
+        sysid_wrong.then(|| {
+            format!(
+                "faithd listens to system {} (mavlink.autopilot_system_id)",
+                want.autopilot_system_id
+            )
+        }),
+        sysid_wrong.then(|| {
+            format!(
+                "set mavlink_sysid = {} (or change mavlink.autopilot_system_id)",
+                want.autopilot_system_id
+            )
+        }),
+    );
+
+    let roll_frame_index = usize::from(s.rcmap[0]);
+    item(
+        "channel map",
+        format!("roll from radio channel {}", roll_frame_index + 1),
+        (roll_frame_index > 3)
+            .then(|| "roll must come from one of the first four radio channels".into()),
+        None,
+    );
+
+    let warmup_us = RXDATA_PERIOD_US + i64::from(s.failsafe_recovery_delay_ds) * 100_000;
+    let hold_after_stop_us = RXDATA_PERIOD_US + i64::from(s.failsafe_delay_ds) * 100_000;
+    item(
+        "failsafe delays",
+        format!(
+            "failsafe_recovery_delay = {}, failsafe_delay = {}: iNav applies the override after {} ms of frames and keeps faithd's last value {} ms after they stop",
+            s.failsafe_recovery_delay_ds,
+            s.failsafe_delay_ds,
+            warmup_us / 1000,
+            hold_after_stop_us / 1000
+        ),
+        None,
+        None,
+    );
+
+    let passed = items.iter().all(|i| i.problem.is_none());
+    FcReport {
+        route: passed.then_some(RouteFacts {
+            roll_frame_index,
+            warmup_us,
+            hold_after_stop_us,
+            attitude_period_us: attitude_period.unwrap_or(0),
+            rc_period_us: rc_period.unwrap_or(0),
+        }),
+        items,
+    }
+}
+
+/// Reads every setting the check needs over an open MSP port.
+pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, MspError> {
+    let variant = port.request(msp_port::MSP_FC_VARIANT, &[], timeout).await?;
+    let version = port.request(msp_port::MSP_FC_VERSION, &[], timeout).await?;
+    let byte = |v: &[u8], i: usize| v.get(i).copied().unwrap_or(0);
+    let mut setting = async |name: &str| port.setting(name, timeout).await;
+    let receiver_type = setting("receiver_type").await? as u8;
+    let serialrx_provider = setting("serialrx_provider").await? as u8;
+    let msp_override_channels = setting("msp_override_channels").await?;
+    let failsafe_delay_ds = setting("failsafe_delay").await? as u8;
+    let failsafe_recovery_delay_ds = setting("failsafe_recovery_delay").await? as u8;
+    let mavlink_extra1_rate = setting("mavlink_extra1_rate").await? as u8;
+    let mavlink_rc_chan_rate = setting("mavlink_rc_chan_rate").await? as u8;
+    let mavlink_sysid = setting("mavlink_sysid").await? as u8;
+    let map = port.request(msp_port::MSP_RX_MAP, &[], timeout).await?;
+    let ranges = port
+        .request(msp_port::MSP_MODE_RANGES, &[], timeout)
+        .await?;
+    Ok(FcSettings {
+        variant: String::from_utf8_lossy(&variant[..variant.len().min(4)]).into_owned(),
+        version: (byte(&version, 0), byte(&version, 1), byte(&version, 2)),
+        receiver_type,
+        serialrx_provider,
+        msp_override_channels,
+        failsafe_delay_ds,
+        failsafe_recovery_delay_ds,
+        mavlink_extra1_rate,
+        mavlink_rc_chan_rate,
+        mavlink_sysid,
+        rcmap: [byte(&map, 0), byte(&map, 1), byte(&map, 2), byte(&map, 3)],
+        modes: ranges
+            .chunks_exact(4)
+            .enumerate()
+            .map(|(slot, m)| ModeRange {
+                slot,
+                mode_id: m[0],
+                aux_index: m[1],
+                start_step: m[2],
+                end_step: m[3],
+            })
+            .collect(),
+    })
+}
+
+/// `faithd check-fc`: opens `command.msp_endpoint`, reads and judges the set-up.
+pub fn check_over_msp(config: &crate::config::FaithdConfig) -> Result<FcReport, String> {
+    let endpoint = crate::link::endpoint::Endpoint::parse(
+        &config.command.msp_endpoint,
+        config.command.msp_baud,
+    )?;
+    let timeout = Duration::from_micros(config.command.msp_timeout_us.max(1) as u64);
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())?;
+    runtime.block_on(async {
+        let transport = tokio::time::timeout(Duration::from_secs(3), endpoint.open())
+            .await
+            .map_err(|_| format!("{endpoint} did not open within 3 s"))?
+            .map_err(|e| format!("{endpoint}: {e}"))?;
+        let mut port = MspPort::new(transport);
+        let settings = read(&mut port, timeout).await.map_err(|e| e.to_string())?;
+        Ok(evaluate(&settings, &Expectations::from_config(config)))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The committed CLI script's set-up (hil/inav/faithd.cli).
+    pub fn good() -> FcSettings {
+        let mut modes: Vec<ModeRange> = (0..40)
+            .map(|slot| ModeRange {
+                slot,
+                mode_id: 0,
+                aux_index: 0,
+                start_step: 0,
+                end_step: 0,
+            })
+            .collect();
+        // aux 0 0 0 1700 2100 (ARM on channel 5), aux 2 50 1 1700 2100 (channel 6).
+        modes[0] = ModeRange {
+            slot: 0,
+            mode_id: MODE_ARM,
+            aux_index: 0,
+            start_step: 32,
+            end_step: 48,
+        };
+        modes[2] = ModeRange {
+            slot: 2,
+            mode_id: MODE_MSP_RC_OVERRIDE,
+            aux_index: 1,
+            start_step: 32,
+            end_step: 48,
+        };
+        FcSettings {
+            variant: "INAV".into(),
+            version: (9, 1, 0),
+            receiver_type: 1,
+            serialrx_provider: 4,
+            msp_override_channels: 1,
+            failsafe_delay_ds: 5,
+            failsafe_recovery_delay_ds: 5,
+            mavlink_extra1_rate: 50,
+            mavlink_rc_chan_rate: 50,
+            mavlink_sysid: 1,
+            rcmap: [0, 1, 3, 2],
+            modes,
+        }
+    }
+
+    fn want() -> Expectations {
+        Expectations::from_config(&crate::config::FaithdConfig::default())
+    }
+
+    #[test]
+    fn the_committed_set_up_passes_with_inav_timings() {
+        let report = evaluate(&good(), &want());
+        assert_eq!(report.problems().count(), 0, "{}", report.summary());
+        let route = report.route.unwrap();
+        assert_eq!(route.warmup_us, 700_000);
+        assert_eq!(route.hold_after_stop_us, 700_000);
+        assert_eq!(route.attitude_period_us, 40_000);
+        assert_eq!(route.roll_frame_index, 0);
+    }
+
+    #[test]
+    fn stream_periods_match_what_inav_sends() {
+        // Measured on SITL: 50 -> 24.6 Hz, 25 -> 16.4 Hz, 10 -> about 8 Hz, 5 -> 4.5 Hz.
+        assert_eq!(mavlink_stream_period_us(50), Some(40_000));
+        assert_eq!(mavlink_stream_period_us(100), Some(40_000));
+        assert_eq!(mavlink_stream_period_us(25), Some(60_000));
+        assert_eq!(mavlink_stream_period_us(10), Some(120_000));
+        assert_eq!(mavlink_stream_period_us(5), Some(220_000));
+        assert_eq!(mavlink_stream_period_us(0), None);
+    }
+
+    fn refused(settings: FcSettings, what: &str, fix: &str) {
+        let report = evaluate(&settings, &want());
+        assert!(report.route.is_none(), "{what} should refuse");
+        let item = report
+            .problems()
+            .find(|i| i.what == what)
+            .unwrap_or_else(|| panic!("no problem with {what}: {}", report.summary()));
+        assert!(
+            item.fix.as_deref().unwrap_or("").contains(fix),
+            "{what}: fix {:?} lacks {fix}",
+            item.fix
+        );
+    }
+
+    #[test]
+    fn each_known_failure_is_refused_with_its_cli_fix() {
+        let mut s = good();
+        s.receiver_type = 2;
+        refused(s, "pilot's receiver", "set receiver_type = SERIAL");
+        let mut s = good();
+        s.msp_override_channels = 0b1001;
+        refused(s, "override channels", "set msp_override_channels = 1");
+        let mut s = good();
+        s.modes[2].end_step = 0;
+        refused(s, "override mode", "aux 1 50 1 1700 2100");
+        let mut s = good();
+        s.modes[2].start_step = 20; // active from 1400 us: in MANUAL too
+        refused(s, "override mode", "aux 2 0 0 900 900");
+        let mut s = good();
+        s.modes[2].aux_index = 2;
+        refused(s, "override mode", "aux 2 0 0 900 900");
+        let mut s = good();
+        s.modes[0].aux_index = 1;
+        refused(s, "arm switch", "aux 0 0");
+        let mut s = good();
+        s.mavlink_extra1_rate = 10;
+        refused(s, "ATTITUDE rate", "set mavlink_extra1_rate = 50");
+        let mut s = good();
+        s.mavlink_rc_chan_rate = 0;
+        refused(s, "RC_CHANNELS rate", "set mavlink_rc_chan_rate = 50");
+        let mut s = good();
+        s.mavlink_sysid = 7;
+        refused(s, "MAVLink system id", "set mavlink_sysid = 1");
+    }
+
+    #[test]
+    fn a_remapped_radio_moves_the_roll_slot() {
+        let mut s = good();
+        s.rcmap = [1, 2, 3, 0]; // TAER-style radio: roll on radio channel 2
+        let route = evaluate(&s, &want()).route.unwrap();
+        assert_eq!(route.roll_frame_index, 1);
+    }
+}
