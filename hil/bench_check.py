@@ -52,52 +52,60 @@ def msp_set_raw_rc(port, channels):
     port.write(b"$X<" + body + bytes([crc]))
 
 
+def open_msp(device, baud):
+    """A serial device, or tcp:HOST:PORT (iNav SITL's UARTs are TCP listeners)."""
+    if device.startswith("tcp:"):
+        import socket
+        host, port = device[4:].rsplit(":", 1)
+        sock = socket.create_connection((host, int(port)))
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+
+        class Port:
+            def write(self, data):
+                sock.sendall(data)
+        return Port()
+    import serial  # pyserial, a pymavlink dependency
+    return serial.Serial(device, baud)
+
+
 def test_roll(conn, args, msp):
-    """Sends one roll for args.roll_s, then the release; measures the echo."""
+    """Streams MSP_SET_RAW_RC as faithd does: the centre for args.warmup_s (iNav applies
+    MSP override only after 200 ms + failsafe_recovery_delay of fresh frames), one roll
+    for args.roll_s, then the centre again; measures iNav's echo in RC_CHANNELS."""
     value = 1500 + args.deflection_us
-    sent_at = None
     echo_at = None
     echo_end = None
-    release_at = None
     centred_at = None
     period = 0.02
     start = time.monotonic()
+    roll_start = start + args.warmup_s
+    roll_end = roll_start + args.roll_s
     next_send = start
-    while time.monotonic() - start < args.roll_s + 1.5:
+    while time.monotonic() < roll_end + 1.5:
         now = time.monotonic()
-        rolling = now - start < args.roll_s
-        if now >= next_send and (rolling or release_at is None or now - release_at < 0.1):
-            out = value if rolling else 1500
-            if msp is not None:
-                chans = [1500] * max(8, args.roll_channel)
-                chans[args.roll_channel - 1] = out
-                msp_set_raw_rc(msp, chans)
-            else:
-                chans = [65535] * 18
-                chans[args.roll_channel - 1] = out if rolling else args.release_us
-                conn.mav.rc_channels_override_send(conn.target_system, 1, *chans)
-            if rolling and sent_at is None:
-                sent_at = now
-            if not rolling and release_at is None:
-                release_at = now
+        if now >= next_send:
+            rolling = roll_start <= now < roll_end
+            chans = [1500] * 4
+            chans[args.roll_channel - 1] = value if rolling else 1500
+            msp_set_raw_rc(msp, chans)
             next_send += period
         msg = conn.recv_match(type="RC_CHANNELS", blocking=True, timeout=0.005)
         if msg is None:
             continue
         v = channel(msg, args.roll_channel)
         t = time.monotonic()
-        if echo_at is None and abs(v - value) <= 10:
+        if echo_at is None and t >= roll_start and abs(v - value) <= 10:
             echo_at = t
         if echo_at is not None and echo_end is None and abs(v - value) > 10:
             echo_end = t
-        if release_at is not None and centred_at is None and abs(v - 1500) <= 10:
+        if t >= roll_end and centred_at is None and abs(v - 1500) <= 10:
             centred_at = t
     return {
         "roll_value_us": value,
         "echo_seen": echo_at is not None,
-        "echo_delay_ms": None if echo_at is None else 1e3 * (echo_at - sent_at),
+        "echo_delay_ms": None if echo_at is None else 1e3 * (echo_at - roll_start),
         "echo_held_s": None if echo_at is None or echo_end is None else echo_end - echo_at,
-        "centred_after_release_ms": None if centred_at is None else 1e3 * (centred_at - release_at),
+        "centred_after_release_ms": None if centred_at is None else 1e3 * (centred_at - roll_end),
     }
 
 
@@ -110,9 +118,11 @@ def main():
     p.add_argument("--auto-max-us", type=int, default=2100)
     p.add_argument("--roll-channel", type=int, default=1)
     p.add_argument("--deflection-us", type=int, default=300)
-    p.add_argument("--release-us", type=int, default=1500)
     p.add_argument("--roll-s", type=float, default=1.5)
-    p.add_argument("--msp-device")
+    p.add_argument("--warmup-s", type=float, default=1.0,
+                   help="centre frames before the roll (iNav's MSP override recovery delay)")
+    p.add_argument("--msp-device", required=True,
+                   help="the UART to iNav's MSP port (faithd's command.msp_endpoint)")
     p.add_argument("--non-interactive", action="store_true",
                    help="skip the prompts (switch test is then read, not guided)")
     p.add_argument("--report", default="hil-report.json")
@@ -131,10 +141,11 @@ def main():
     report["heartbeat"] = True
     report["rates_hz"] = rates(conn, 5.0)
     print("rates (Hz):", report["rates_hz"])
-    ok_rates = report["rates_hz"]["ATTITUDE"] >= 40 and report["rates_hz"]["RC_CHANNELS"] >= 5
+    # iNav's streams top out at 25 Hz (a setting of 50 gives 24.6 Hz on SITL).
+    ok_rates = report["rates_hz"]["ATTITUDE"] >= 20 and report["rates_hz"]["RC_CHANNELS"] >= 20
     report["rates_ok"] = ok_rates
     if not ok_rates:
-        print("WARN: set mavlink_extra1_rate = 50 and mavlink_rc_chan_rate = 10 in iNav")
+        print("WARN: set mavlink_extra1_rate = 50 and mavlink_rc_chan_rate = 50 in iNav (hil/inav/faithd.cli)")
 
     lo, hi = args.auto_min_us, args.auto_max_us
     if not args.non_interactive:
@@ -148,10 +159,7 @@ def main():
 
     if not args.non_interactive:
         input("PROPS OFF? Press Enter to send one test roll ")
-    msp = None
-    if args.msp_device:
-        import serial  # pyserial, a pymavlink dependency
-        msp = serial.Serial(args.msp_device, args.baud)
+    msp = open_msp(args.msp_device, args.baud)
     report["test_roll"] = test_roll(conn, args, msp)
     print("test roll:", report["test_roll"])
     with open(args.report, "w") as f:
