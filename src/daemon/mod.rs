@@ -413,15 +413,21 @@ async fn commander_task(
                     check
                         .confirm
                         .start(commander.roll_value_us(direction), now_us);
+                    // The Unix time lets a bench or a test line the decision up with
+                    // what the flight controller reports.
                     tracing::info!(
                         ?direction,
                         duration_ms = duration_us / 1000,
+                        unix_us = clock.unix_us(now_us),
                         "manoeuvre started: roll {direction:?}"
                     )
                 }
                 Transition::Completed => {
                     check.confirm.stop();
-                    tracing::info!("manoeuvre completed: roll released")
+                    tracing::info!(
+                        unix_us = clock.unix_us(now_us),
+                        "manoeuvre completed: roll released"
+                    )
                 }
                 Transition::Cut => {
                     check.confirm.stop();
