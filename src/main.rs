@@ -346,6 +346,10 @@ enum Command {
         /// Path to faithd.toml.
         #[arg(long, default_value = "/etc/faithd/faithd.toml")]
         config: PathBuf,
+        /// Accept `source.kind = "sim"`: rolls commanded from a simulated camera.
+        /// For the bench and tests only; the service never passes it.
+        #[arg(long)]
+        simulated_camera: bool,
     },
     /// Recorded events (and attitude) through the same pipeline: one line per window.
     Replay {
@@ -585,7 +589,7 @@ fn replay_window_log(
     }
 }
 
-fn run(path: &std::path::Path) -> ExitCode {
+fn run(path: &std::path::Path, options: faithd::daemon::RunOptions) -> ExitCode {
     let config = match FaithdConfig::load(path) {
         Ok(c) => c,
         Err(e) => {
@@ -593,8 +597,12 @@ fn run(path: &std::path::Path) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match faithd::daemon::run(config) {
+    match faithd::daemon::run(config, options) {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e @ faithd::daemon::DaemonError::Config { .. }) => {
+            tracing::error!("refusing to start: {e}");
+            ExitCode::from(2)
+        }
         Err(e) => {
             tracing::error!("{e}");
             ExitCode::FAILURE
@@ -727,7 +735,10 @@ fn main() -> ExitCode {
                     rotation,
                 },
         } => bench_foe(trajectories, seed, json, threads, &plot_dir, rotation),
-        Command::Run { config } => run(&config),
+        Command::Run {
+            config,
+            simulated_camera,
+        } => run(&config, faithd::daemon::RunOptions { simulated_camera }),
         Command::Replay {
             events,
             mavlink,

@@ -77,8 +77,25 @@ pub enum DaemonError {
     Runtime(std::io::Error),
 }
 
-/// Runs the daemon until SIGINT or SIGTERM.
-pub fn run(config: FaithdConfig) -> Result<(), DaemonError> {
+/// What a person asked for on the command line of `faithd run`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RunOptions {
+    /// `--simulated-camera`: let `source.kind = "sim"` command rolls. Without it a
+    /// simulated source is refused: a real vehicle would roll at imaginary poles.
+    pub simulated_camera: bool,
+}
+
+/// Why `faithd run` refuses a simulated camera without the command-line opt-in.
+pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faithd roll the vehicle at imaginary poles about every 5 s; `faithd run` takes it only with --simulated-camera on its command line (bench and tests, never the service); set source.kind = \"caer\" for the DVS240";
+
+/// Runs the daemon until SIGINT, SIGTERM or SIGHUP.
+pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError> {
+    if config.source.kind == source::SourceKind::Sim && !options.simulated_camera {
+        return Err(DaemonError::Config {
+            key: "source.kind",
+            reason: SIM_SOURCE_REFUSED.into(),
+        });
+    }
     let endpoint =
         Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud).map_err(|reason| {
             DaemonError::Config {
@@ -100,6 +117,9 @@ pub fn run(config: FaithdConfig) -> Result<(), DaemonError> {
     let (source_config, camera) = (config.source.clone(), config.pipeline.camera);
     let source: SourceFn = match source_config.kind {
         source::SourceKind::Sim => {
+            tracing::warn!(
+                "SIMULATED CAMERA (--simulated-camera): every roll faithd commands comes from generated events, not from the world; never fly like this"
+            );
             Box::new(move |clock, batches| source::run_sim(source_config, camera, clock, batches))
         }
         #[cfg(feature = "caer")]
@@ -417,6 +437,7 @@ async fn commander_task(
                     // what the flight controller reports.
                     tracing::info!(
                         ?direction,
+                        roll_us = commander.roll_value_us(direction),
                         duration_ms = duration_us / 1000,
                         unix_us = clock.unix_us(now_us),
                         "manoeuvre started: roll {direction:?}"
@@ -432,6 +453,7 @@ async fn commander_task(
                 Transition::Cut => {
                     check.confirm.stop();
                     tracing::warn!(
+                        unix_us = clock.unix_us(now_us),
                         "manoeuvre cut: roll released because {}",
                         match gate {
                             GateState::Closed(b) => b.to_string(),

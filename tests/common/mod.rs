@@ -1,7 +1,10 @@
 //! A mock iNav autopilot on a real pseudo-terminal, speaking real MAVLink 2 bytes,
-//! and a guard that runs the real `faithd run` binary against it.
+//! and a guard that runs the real `faithd run` binary against it; iNav's own
+//! firmware (SITL) in [`sitl`].
 
 #![allow(dead_code)]
+
+pub mod sitl;
 
 use std::io::Read;
 use std::os::fd::OwnedFd;
@@ -390,22 +393,31 @@ impl Daemon {
 
     /// As [`Daemon::start`], with extra environment variables.
     pub fn start_with_env(endpoint: &str, extra: &str, env: &[(&str, &str)]) -> Self {
+        Self::start_config(
+            &format!(
+                "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
+                 [source]\nkind = \"sim\"\nsim_first_approach_us = 600000\nsim_repeat_us = 4000000\n{extra}"
+            ),
+            env,
+        )
+    }
+
+    /// Starts `faithd run --simulated-camera` on `config` (TOML); recordings go to
+    /// [`Daemon::flights_dir`] unless the config says otherwise.
+    pub fn start_config(config_text: &str, env: &[(&str, &str)]) -> Self {
         let dir = TempDir::new("daemon");
         let config = dir.0.join("faithd.toml");
-        std::fs::write(
-            &config,
-            format!(
-                "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
-                 [source]\nsim_first_approach_us = 600000\nsim_repeat_us = 4000000\n\
-                 [record]\ndir = \"{}\"\n{extra}",
-                dir.0.join("flights").display()
-            ),
-        )
-        .unwrap();
+        let record = if config_text.contains("[record]") {
+            String::new()
+        } else {
+            format!("[record]\ndir = \"{}\"\n", dir.0.join("flights").display())
+        };
+        std::fs::write(&config, format!("{config_text}\n{record}")).unwrap();
         let log_path = dir.0.join("faithd.log");
         let log = std::fs::File::create(&log_path).unwrap();
         let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
             .arg("run")
+            .arg("--simulated-camera")
             .arg("--config")
             .arg(&config)
             .env("RUST_LOG", "info")
@@ -436,11 +448,25 @@ impl Daemon {
 
     /// SIGTERM and wait: faithd releases the roll channel and exits 0.
     pub fn stop(&mut self) -> std::process::ExitStatus {
-        let _ = nix::sys::signal::kill(
-            nix::unistd::Pid::from_raw(self.child.id() as i32),
-            nix::sys::signal::Signal::SIGTERM,
-        );
+        self.signal(nix::sys::signal::Signal::SIGTERM)
+    }
+
+    /// Sends `signal` and waits for the exit.
+    pub fn signal(&mut self, signal: nix::sys::signal::Signal) -> std::process::ExitStatus {
+        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(self.child.id() as i32), signal);
         self.child.wait().unwrap()
+    }
+
+    /// Waits until the journal holds `needle` (or `timeout` passes).
+    pub fn wait_for_log(&self, needle: &str, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if self.log().contains(needle) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        self.log().contains(needle)
     }
 }
 
