@@ -370,7 +370,11 @@ impl AttitudeArrivals {
         })? {
             let own = rec.header.system_id == u32::from(header.own_system_id)
                 && rec.header.component_id == header.own_component_id;
-            if own || rec.header.system_id != u32::from(header.autopilot_system_id) {
+            let autopilot = rec.header.system_id == u32::from(header.autopilot_system_id)
+                && header
+                    .autopilot_component_id
+                    .is_none_or(|c| rec.header.component_id == c);
+            if own || !autopilot {
                 continue;
             }
             let Some(msg) = rec.message else { continue };

@@ -37,6 +37,9 @@ pub struct WindowLogHeader {
     pub own_component_id: u8,
     /// Only this system's frames were taken as the autopilot's.
     pub autopilot_system_id: u8,
+    /// ...and only this component's (absent in logs written before faithd checked it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub autopilot_component_id: Option<u8>,
     /// ATTITUDE messages the clock-offset estimate runs over.
     pub clock_sync_window: usize,
     pub pipeline: PipelineConfig,
@@ -131,6 +134,7 @@ mod tests {
             own_system_id: 1,
             own_component_id: 191,
             autopilot_system_id: 1,
+            autopilot_component_id: Some(1),
             clock_sync_window: 50,
             pipeline: PipelineConfig::default(),
         }

@@ -14,7 +14,7 @@ use mavlink::{MavHeader, MavlinkVersion};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
 
-use super::inav_msp::{InavMsp, Setup};
+use super::inav_msp::{FcView, InavMsp, Setup};
 use super::physics::Shared;
 use crate::daemon::clock::DaemonClock;
 
@@ -77,7 +77,7 @@ pub async fn run_msp(listener: TcpListener, shared: Arc<Shared>, clock: DaemonCl
                     let now_us = clock.now_us();
                     let (_, roll_us, switch_us) = telemetry(&shared, &clock);
                     let rc = rc_in_use(roll_us, switch_us);
-                    let out = fc.receive(&buf[..n], now_us, rc);
+                    let out = fc.receive(&buf[..n], now_us, FcView::flying(rc));
                     if stream.write_all(&out).await.is_err() {
                         break;
                     }

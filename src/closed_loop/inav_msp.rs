@@ -10,8 +10,35 @@
 
 use crate::command::msp::{self, Decoder, Frame, MSP_SET_RAW_RC};
 use crate::command::msp_port::{
-    MSP_FC_VARIANT, MSP_FC_VERSION, MSP_MODE_RANGES, MSP_RC, MSP_RX_MAP, MSP2_COMMON_SETTING,
+    MSP_BOXIDS, MSP_FC_VARIANT, MSP_FC_VERSION, MSP_MODE_RANGES, MSP_RC, MSP_RX_MAP,
+    MSP2_COMMON_SETTING, MSP2_INAV_STATUS,
 };
+
+/// MSP_BOXIDS as iNav 9.1's SITL build answers it.
+pub const BOX_IDS: [u8; 29] = [
+    0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44, 50, 62,
+    63, 65, 66, 67,
+];
+
+/// What the vehicle side of the model is doing when faithd asks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FcView {
+    /// The eight channels iNav uses (MSP_RC), in iNav's order; index 5 is the switch.
+    pub rc_in_use: [u16; 8],
+    pub armed: bool,
+    pub failsafe: bool,
+}
+
+impl FcView {
+    /// Armed, no failsafe, these channels.
+    pub fn flying(rc_in_use: [u16; 8]) -> Self {
+        Self {
+            rc_in_use,
+            armed: true,
+            failsafe: false,
+        }
+    }
+}
 
 /// rx/msp.c: a frame older than this and iNav's MSP receiver has lost its signal.
 const SIGNAL_TIMEOUT_US: i64 = 200_000;
@@ -68,6 +95,7 @@ impl Setup {
             b"mavlink_extra1_rate" => byte(self.mavlink_extra1_rate),
             b"mavlink_rc_chan_rate" => byte(self.mavlink_rc_chan_rate),
             b"mavlink_sysid" => byte(1),
+            b"mavlink_version" => byte(2),
             _ => None,
         }
     }
@@ -115,12 +143,12 @@ impl InavMsp {
     }
 
     /// Feeds bytes from faithd; returns the replies to write back.
-    pub fn receive(&mut self, bytes: &[u8], now_us: i64, rc_in_use: [u16; 8]) -> Vec<u8> {
+    pub fn receive(&mut self, bytes: &[u8], now_us: i64, view: FcView) -> Vec<u8> {
         let mut frames = Vec::new();
         self.decoder.push(bytes, &mut frames);
         let mut out = Vec::new();
         for f in frames.into_iter().filter(|f| f.direction == b'<') {
-            let reply = self.reply(&f, now_us, rc_in_use);
+            let reply = self.reply(&f, now_us, view);
             match reply {
                 Some(payload) => out.extend(frame(b'>', f.command, &payload)),
                 None => out.extend(frame(b'!', f.command, &[])),
@@ -129,7 +157,7 @@ impl InavMsp {
         out
     }
 
-    fn reply(&mut self, f: &Frame, now_us: i64, rc_in_use: [u16; 8]) -> Option<Vec<u8>> {
+    fn reply(&mut self, f: &Frame, now_us: i64, view: FcView) -> Option<Vec<u8>> {
         let u16s = |v: &[u16]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
         match f.command {
             MSP_FC_VARIANT => Some(b"INAV".to_vec()),
@@ -160,9 +188,40 @@ impl InavMsp {
                 self.frames.push((now_us, channels));
                 Some(Vec::new())
             }
-            MSP_RC => Some(u16s(&rc_in_use)),
+            MSP_RC => Some(u16s(&view.rc_in_use)),
+            MSP_BOXIDS => Some(BOX_IDS.to_vec()),
+            MSP2_INAV_STATUS => Some(self.status(view)),
             _ => None,
         }
+    }
+}
+
+impl InavMsp {
+    /// MSP2_INAV_STATUS: cycle time .. profile, arming flags, the active modes' bits
+    /// (positions in [`BOX_IDS`]), mixer profile.
+    fn status(&self, view: FcView) -> Vec<u8> {
+        let mut out = vec![0u8; 9];
+        let flags: u32 = if view.armed { 0b1100 } else { 0 };
+        out.extend_from_slice(&flags.to_le_bytes());
+        let mut bits = [0u8; 8];
+        let mut set = |id: u8| {
+            if let Some(i) = BOX_IDS.iter().position(|b| *b == id) {
+                bits[i / 8] |= 1 << (i % 8);
+            }
+        };
+        set(1); // ANGLE
+        if view.armed {
+            set(0);
+        }
+        if view.failsafe {
+            set(27);
+        }
+        if self.setup.override_mode_on(view.rc_in_use[5]) {
+            set(50);
+        }
+        out.extend_from_slice(&bits);
+        out.push(0);
+        out
     }
 }
 
@@ -195,7 +254,7 @@ mod tests {
                     if n == 0 {
                         break;
                     }
-                    let out = fc.receive(&buf[..n], 0, [1500; 8]);
+                    let out = fc.receive(&buf[..n], 0, FcView::flying([1500; 8]));
                     theirs.write_all(&out).await.unwrap();
                 }
                 fc
@@ -214,7 +273,7 @@ mod tests {
 
         let roll = msp::set_raw_rc(&[1800, 1500, 1500, 1500]);
         for t in (0..=800_000).step_by(20_000) {
-            fc.receive(&roll, t, [1500; 8]);
+            fc.receive(&roll, t, FcView::flying([1500; 8]));
         }
         assert_eq!(
             fc.roll_in_use(600_000, 1900, 1400),

@@ -12,7 +12,10 @@ use super::msp_port::{self, MspError, MspPort};
 
 /// iNav's mode ids (fc/fc_msp_box.c, permanent ids).
 const MODE_ARM: u8 = 0;
+const MODE_FAILSAFE: u8 = 27;
 const MODE_MSP_RC_OVERRIDE: u8 = 50;
+/// fc/runtime_config.h: ARMED in MSP2_INAV_STATUS's arming flags.
+const ARMING_FLAG_ARMED: u32 = 1 << 2;
 /// iNav's first AUX channel is channel 5 (four flight channels before it).
 const FIRST_AUX_CHANNEL: u8 = 5;
 /// iNav's telemetry task ticks at 50 Hz (telemetry/mavlink.c, TELEMETRY_MAVLINK_MAXRATE).
@@ -88,6 +91,41 @@ pub struct FcSettings {
     /// Radio channel (0-based) feeding iNav's roll, pitch, yaw, throttle.
     pub rcmap: [u8; 4],
     pub modes: Vec<ModeRange>,
+    /// MAVLink version iNav speaks (1 sends RC_CHANNELS_RAW, which faithd does not read).
+    pub mavlink_version: u8,
+    /// MSP_BOXIDS: the modes this build offers, in the order of the status bits.
+    pub box_ids: Vec<u8>,
+}
+
+/// Where MSP2_INAV_STATUS keeps the bits faithd reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StatusBits {
+    /// Bit of the FAILSAFE mode, when the build reports it.
+    pub failsafe: Option<u8>,
+    /// Bit of the MSP RC OVERRIDE mode.
+    pub msp_override: u8,
+}
+
+impl StatusBits {
+    /// Reads an MSP2_INAV_STATUS reply: (armed, failsafe, override on); `None` when
+    /// it is too short to hold the mode bits.
+    pub fn decode(&self, payload: &[u8]) -> Option<(bool, bool, bool)> {
+        let flags = u32::from_le_bytes(payload.get(9..13)?.try_into().ok()?);
+        let modes = payload.get(13..)?;
+        let bit = |i: u8| {
+            modes
+                .get(usize::from(i / 8))
+                .map(|b| b & (1 << (i % 8)) != 0)
+        };
+        Some((
+            flags & ARMING_FLAG_ARMED != 0,
+            match self.failsafe {
+                Some(i) => bit(i)?,
+                None => false,
+            },
+            bit(self.msp_override)?,
+        ))
+    }
 }
 
 /// What the check needs from faithd's own configuration.
@@ -140,6 +178,8 @@ pub struct RouteFacts {
     /// Worst period of ATTITUDE and RC_CHANNELS at the configured rates.
     pub attitude_period_us: i64,
     pub rc_period_us: i64,
+    /// How to read iNav's status (armed, failsafe, override mode) over MSP.
+    pub status_bits: StatusBits,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -382,6 +422,35 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         }),
     );
 
+    let v1 = s.mavlink_version != 2;
+    item(
+        "MAVLink version",
+        format!("mavlink_version = {}", s.mavlink_version),
+        v1.then(|| "faithd reads RC_CHANNELS, which iNav sends only with MAVLink 2 (version 1 sends RC_CHANNELS_RAW)".into()),
+        v1.then(|| "set mavlink_version = 2".into()),
+    );
+
+    let position = |id: u8| {
+        s.box_ids
+            .iter()
+            .position(|b| *b == id)
+            .and_then(|i| u8::try_from(i).ok())
+    };
+    let override_bit = position(MODE_MSP_RC_OVERRIDE);
+    item(
+        "override in this build",
+        match override_bit {
+            Some(_) => "MSP RC OVERRIDE offered".into(),
+            None => "MSP RC OVERRIDE not offered".into(),
+        },
+        override_bit
+            .is_none()
+            .then(|| "this iNav build lacks USE_MSP_RC_OVERRIDE: it cannot take faithd's roll".into()),
+        override_bit
+            .is_none()
+            .then(|| "flash an iNav build with USE_MSP_RC_OVERRIDE (most targets have it)".into()),
+    );
+
     let roll_frame_index = usize::from(s.rcmap[0]);
     item(
         "channel map",
@@ -408,12 +477,16 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
 
     let passed = items.iter().all(|i| i.problem.is_none());
     FcReport {
-        route: passed.then_some(RouteFacts {
+        route: override_bit.filter(|_| passed).map(|msp_override| RouteFacts {
             roll_frame_index,
             warmup_us,
             hold_after_stop_us,
             attitude_period_us: attitude_period.unwrap_or(0),
             rc_period_us: rc_period.unwrap_or(0),
+            status_bits: StatusBits {
+                failsafe: position(MODE_FAILSAFE),
+                msp_override,
+            },
         }),
         items,
     }
@@ -433,10 +506,12 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
     let mavlink_extra1_rate = setting("mavlink_extra1_rate").await? as u8;
     let mavlink_rc_chan_rate = setting("mavlink_rc_chan_rate").await? as u8;
     let mavlink_sysid = setting("mavlink_sysid").await? as u8;
+    let mavlink_version = setting("mavlink_version").await? as u8;
     let map = port.request(msp_port::MSP_RX_MAP, &[], timeout).await?;
     let ranges = port
         .request(msp_port::MSP_MODE_RANGES, &[], timeout)
         .await?;
+    let box_ids = port.request(msp_port::MSP_BOXIDS, &[], timeout).await?;
     Ok(FcSettings {
         variant: String::from_utf8_lossy(&variant[..variant.len().min(4)]).into_owned(),
         version: (byte(&version, 0), byte(&version, 1), byte(&version, 2)),
@@ -460,6 +535,8 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
                 end_step: m[3],
             })
             .collect(),
+        mavlink_version,
+        box_ids,
     })
 }
 
@@ -528,6 +605,12 @@ mod tests {
             mavlink_sysid: 1,
             rcmap: [0, 1, 3, 2],
             modes,
+            mavlink_version: 2,
+            // As iNav 9.1's SITL build lists them (MSP_BOXIDS).
+            box_ids: vec![
+                0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43,
+                44, 50, 62, 63, 65, 66, 67,
+            ],
         }
     }
 
@@ -544,6 +627,31 @@ mod tests {
         assert_eq!(route.hold_after_stop_us, 700_000);
         assert_eq!(route.attitude_period_us, 40_000);
         assert_eq!(route.roll_frame_index, 0);
+        assert_eq!(
+            route.status_bits,
+            StatusBits {
+                failsafe: Some(16),
+                msp_override: 23
+            }
+        );
+    }
+
+    #[test]
+    fn status_bits_read_armed_failsafe_and_override() {
+        let bits = StatusBits {
+            failsafe: Some(16),
+            msp_override: 23,
+        };
+        // cycle time .. profile (9 bytes), arming flags, then the mode bits.
+        let mut payload = vec![0u8; 9];
+        payload.extend_from_slice(&(ARMING_FLAG_ARMED | 1 << 3).to_le_bytes());
+        payload.extend_from_slice(&[0b0000_0001, 0, 0b0000_0001, 0b1000_0000, 0, 0, 0, 0]);
+        assert_eq!(bits.decode(&payload), Some((true, true, true)));
+        payload[15] = 0;
+        payload[16] = 0;
+        payload[9] = 0;
+        assert_eq!(bits.decode(&payload), Some((false, false, false)));
+        assert_eq!(bits.decode(&payload[..14]), None, "too short");
     }
 
     #[test]
@@ -600,6 +708,12 @@ mod tests {
         let mut s = good();
         s.mavlink_sysid = 7;
         refused(s, "MAVLink system id", "set mavlink_sysid = 1");
+        let mut s = good();
+        s.mavlink_version = 1;
+        refused(s, "MAVLink version", "set mavlink_version = 2");
+        let mut s = good();
+        s.box_ids.retain(|b| *b != MODE_MSP_RC_OVERRIDE);
+        refused(s, "override in this build", "USE_MSP_RC_OVERRIDE");
     }
 
     #[test]

@@ -18,8 +18,13 @@ pub const MSP_MODE_RANGES: u16 = 34;
 pub const MSP_RX_MAP: u16 = 64;
 /// MSP_RC: the channel values iNav uses, after its receiver, failsafe and MSP override.
 pub const MSP_RC: u16 = 105;
+/// MSP_BOXIDS: the permanent ids of the flight modes this build offers, in the order
+/// of MSP2_INAV_STATUS's mode bits.
+pub const MSP_BOXIDS: u16 = 119;
 /// MSP2_COMMON_SETTING: the raw value of a setting, looked up by its CLI name.
 pub const MSP2_COMMON_SETTING: u16 = 0x1003;
+/// MSP2_INAV_STATUS: arming flags and the flight modes active (fc/fc_msp.c).
+pub const MSP2_INAV_STATUS: u16 = 0x2000;
 
 /// Why a request got no usable answer.
 #[derive(Debug, thiserror::Error)]

@@ -54,6 +54,8 @@ pub struct StreamStatus {
     pub ready_at_us: Option<i64>,
     pub facts: Option<RouteFacts>,
     pub last_report: Option<RollReport>,
+    /// iNav's own state (armed, failsafe, override mode), read every period.
+    pub fc: Option<crate::safety::gate::FcStatus>,
 }
 
 /// Asks the stream to end with the stick centre: `repeats` frames one period apart,
@@ -133,6 +135,7 @@ async fn run(
                         status.send_modify(|s| {
                             s.ready_at_us = None;
                             s.last_report = None;
+                            s.fc = None;
                         });
                         match why {
                             Ended::Stopped => return,
@@ -192,7 +195,8 @@ async fn serve(
 ) -> Ended {
     let neutral = settings.neutral_us;
     let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, neutral);
-    let rc_request = msp::encode_request(msp_port::MSP_RC, &[]);
+    let mut requests = msp::encode_request(msp_port::MSP_RC, &[]);
+    requests.extend(msp::encode_request(msp_port::MSP2_INAV_STATUS, &[]));
     // Whatever was held before the port went away, the stream starts at the centre:
     // that is the release a restarted or reconnected faithd owes the pilot.
     held.mark_unchanged();
@@ -226,7 +230,7 @@ async fn serve(
                     ));
                 }
                 let mut out = frame(roll_us);
-                out.extend_from_slice(&rc_request);
+                out.extend_from_slice(&requests);
                 if let Err(e) = port.write(&out).await {
                     return Ended::Failed(format!("write failed: {e}"));
                 }
@@ -255,6 +259,27 @@ async fn serve(
                         if let Some(roll) = msp_port::rc_values(&f.payload).next() {
                             let report = RollReport { t_us: clock.now_us(), roll_us: roll };
                             status.send_modify(|s| s.last_report = Some(report));
+                        }
+                    } else if f.command == msp_port::MSP2_INAV_STATUS {
+                        match facts.status_bits.decode(&f.payload) {
+                            Some((armed, failsafe, override_on)) => {
+                                let fc = crate::safety::gate::FcStatus {
+                                    t_us: clock.now_us(),
+                                    armed,
+                                    failsafe,
+                                    override_on,
+                                };
+                                status.send_if_modified(|s| {
+                                    let changed = s.fc.map(|o| (o.armed, o.failsafe, o.override_on))
+                                        != Some((armed, failsafe, override_on));
+                                    if changed {
+                                        tracing::info!(armed, failsafe, override_on, "flight controller status");
+                                    }
+                                    s.fc = Some(fc);
+                                    true
+                                });
+                            }
+                            None => tracing::warn!(bytes = f.payload.len(), "MSP2_INAV_STATUS reply too short; ignored"),
                         }
                     }
                 }

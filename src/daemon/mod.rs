@@ -205,6 +205,7 @@ pub async fn serve(
         own_system_id: config.mavlink.system_id,
         own_component_id: config.mavlink.component_id,
         autopilot_system_id: config.mavlink.autopilot_system_id,
+        autopilot_component_id: Some(config.mavlink.autopilot_component_id),
         clock_sync_window: link::CLOCK_SYNC_WINDOW,
         pipeline: config.pipeline,
     };
@@ -398,6 +399,7 @@ async fn commander_task(
             setup_refused: streamed.setup_refused,
             ready_at_us: streamed.ready_at_us,
             roll_not_in_effect: check.fault,
+            fc: streamed.fc,
         };
         let gate = gate::evaluate(&config.gate, &vehicle, &status, &path, now_us);
         if check.fault && matches!(gate, GateState::Closed(Blocker::SwitchNotAuto { .. })) {

@@ -18,22 +18,28 @@ pub enum Endpoint {
     Serial { path: PathBuf, baud: u32 },
     /// Connect to host:port (a simulator or a serial-to-TCP bridge).
     Tcp(String),
-    /// Listen on an address; replies go to whoever sent last.
-    UdpListen(SocketAddr),
-    /// Send to a fixed peer from an ephemeral port.
+    /// Listen on an address. The peer is the configured one (`udp:BIND:PORT@PEER:PORT`),
+    /// or the first sender; datagrams from anyone else are dropped, so one packet from
+    /// another host cannot redirect faithd's traffic.
+    UdpListen {
+        bind: SocketAddr,
+        peer: Option<SocketAddr>,
+    },
+    /// Send to a fixed peer from an ephemeral port; only that peer is heard.
     UdpOut(SocketAddr),
 }
 
 impl Endpoint {
-    /// Parses `serial:/dev/ttyAMA0`, `tcp:127.0.0.1:5760`, `udp:0.0.0.0:14550` or
-    /// `udpout:192.168.1.10:14550`; a bare path is a serial device.
+    /// Parses `serial:/dev/ttyAMA0`, `tcp:127.0.0.1:5760`, `udp:0.0.0.0:14550`,
+    /// `udp:0.0.0.0:14550@192.168.1.10:14550` or `udpout:192.168.1.10:14550`; a bare
+    /// path is a serial device.
     pub fn parse(text: &str, baud: u32) -> Result<Self, String> {
         let (scheme, rest) = match text.split_once(':') {
             Some((s, r)) if ["serial", "tcp", "udp", "udpout"].contains(&s) => (s, r),
             _ if text.starts_with('/') => ("serial", text),
             _ => {
                 return Err(format!(
-                    "`{text}` is not serial:PATH, tcp:HOST:PORT, udp:ADDR:PORT or udpout:ADDR:PORT"
+                    "`{text}` is not serial:PATH, tcp:HOST:PORT, udp:ADDR:PORT[@PEER:PORT] or udpout:ADDR:PORT"
                 ));
             }
         };
@@ -55,7 +61,16 @@ impl Endpoint {
                 Ok(Endpoint::Tcp(rest.to_owned()))
             }
             "tcp" => Err(format!("`{rest}` is not HOST:PORT")),
-            "udp" => addr(rest).map(Endpoint::UdpListen),
+            "udp" => match rest.split_once('@') {
+                Some((bind, peer)) => Ok(Endpoint::UdpListen {
+                    bind: addr(bind)?,
+                    peer: Some(addr(peer)?),
+                }),
+                None => Ok(Endpoint::UdpListen {
+                    bind: addr(rest)?,
+                    peer: None,
+                }),
+            },
             _ => addr(rest).map(Endpoint::UdpOut),
         }
     }
@@ -72,7 +87,7 @@ impl Endpoint {
                 stream.set_nodelay(true)?;
                 Ok(Box::pin(stream))
             }
-            Endpoint::UdpListen(bind) => udp_stream(*bind, None).await,
+            Endpoint::UdpListen { bind, peer } => udp_stream(*bind, *peer).await,
             Endpoint::UdpOut(peer) => {
                 let any: SocketAddr = if peer.is_ipv4() {
                     "0.0.0.0:0".parse().expect("literal address")
@@ -92,7 +107,13 @@ impl std::fmt::Display for Endpoint {
                 write!(f, "serial {} at {baud} baud", path.display())
             }
             Endpoint::Tcp(a) => write!(f, "tcp {a}"),
-            Endpoint::UdpListen(a) => write!(f, "udp listening on {a}"),
+            Endpoint::UdpListen { bind, peer: None } => {
+                write!(f, "udp listening on {bind}, locked to the first peer")
+            }
+            Endpoint::UdpListen {
+                bind,
+                peer: Some(p),
+            } => write!(f, "udp listening on {bind}, peer {p}"),
             Endpoint::UdpOut(a) => write!(f, "udp to {a}"),
         }
     }
@@ -100,29 +121,45 @@ impl std::fmt::Display for Endpoint {
 
 /// UDP carried as a byte stream: a pump task moves datagrams between the socket
 /// and one end of an in-memory pipe, so the MAVLink session code is the same for
-/// every transport. The pump ends when the session drops its end.
+/// every transport. The socket is connected to its one peer (the configured one, or
+/// the first sender), so the kernel drops datagrams from anybody else. The pump ends
+/// when the session drops its end.
 async fn udp_stream(bind: SocketAddr, peer: Option<SocketAddr>) -> std::io::Result<BoxedTransport> {
     let socket = tokio::net::UdpSocket::bind(bind).await?;
+    if let Some(p) = peer {
+        socket.connect(p).await?;
+    }
     let (ours, theirs) = tokio::io::duplex(64 * 1024);
     tokio::spawn(async move {
         let (mut from_session, mut to_session) = tokio::io::split(theirs);
-        let mut peer = peer;
+        let mut locked = peer.is_some();
         let mut datagram = vec![0u8; 65_536];
         let mut outgoing = vec![0u8; 4096];
         loop {
             tokio::select! {
                 got = socket.recv_from(&mut datagram) => {
-                    let Ok((n, from)) = got else { break };
-                    peer = Some(from);
+                    let (n, from) = match got {
+                        Ok(got) => got,
+                        // The peer's port is closed (ICMP): it may open later.
+                        Err(e) if e.kind() == std::io::ErrorKind::ConnectionRefused => continue,
+                        Err(_) => break,
+                    };
+                    if !locked {
+                        if socket.connect(from).await.is_err() {
+                            break;
+                        }
+                        tracing::info!(peer = %from, "UDP peer locked to the first sender");
+                        locked = true;
+                    }
                     if to_session.write_all(&datagram[..n]).await.is_err() {
                         break;
                     }
                 }
                 got = from_session.read(&mut outgoing) => {
                     let n = match got { Ok(0) | Err(_) => break, Ok(n) => n };
-                    if let Some(p) = peer {
+                    if locked {
                         // A datagram that cannot be sent is lost, as UDP would lose it.
-                        let _ = socket.send_to(&outgoing[..n], p).await;
+                        let _ = socket.send(&outgoing[..n]).await;
                     }
                 }
             }
@@ -154,15 +191,94 @@ mod tests {
         );
         assert!(matches!(
             Endpoint::parse("udp:0.0.0.0:14550", 0).unwrap(),
-            Endpoint::UdpListen(_)
+            Endpoint::UdpListen { peer: None, .. }
         ));
+        assert_eq!(
+            Endpoint::parse("udp:127.0.0.1:14550@127.0.0.1:14551", 0).unwrap(),
+            Endpoint::UdpListen {
+                bind: "127.0.0.1:14550".parse().unwrap(),
+                peer: Some("127.0.0.1:14551".parse().unwrap())
+            }
+        );
         assert!(matches!(
             Endpoint::parse("udpout:127.0.0.1:14550", 0).unwrap(),
             Endpoint::UdpOut(_)
         ));
-        for bad in ["ttyS0", "serial:ttyS0", "tcp:host", "udp:nowhere", "ftp:x"] {
+        for bad in [
+            "ttyS0",
+            "serial:ttyS0",
+            "tcp:host",
+            "udp:nowhere",
+            "udp:0.0.0.0:1@nowhere",
+            "ftp:x",
+        ] {
             let err = Endpoint::parse(bad, 0).unwrap_err();
             assert!(!err.is_empty(), "{bad}");
         }
+    }
+
+    /// Reads what reaches the session within `ms`.
+    async fn drain(t: &mut BoxedTransport, ms: u64) -> Vec<u8> {
+        let mut got = Vec::new();
+        let mut buf = [0u8; 256];
+        while let Ok(Ok(n)) =
+            tokio::time::timeout(Duration::from_millis(ms), t.read(&mut buf)).await
+        {
+            if n == 0 {
+                break;
+            }
+            got.extend_from_slice(&buf[..n]);
+        }
+        got
+    }
+
+    use std::time::Duration;
+
+    #[tokio::test]
+    async fn udp_locks_to_its_first_peer_and_ignores_strangers() {
+        let probe = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let bind = probe.local_addr().unwrap();
+        drop(probe);
+        let mut session = Endpoint::UdpListen { bind, peer: None }.open().await.unwrap();
+        let autopilot = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let stranger = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        autopilot.send_to(b"from the autopilot", bind).await.unwrap();
+        assert_eq!(drain(&mut session, 100).await, b"from the autopilot");
+        stranger.send_to(b"redirect me", bind).await.unwrap();
+        autopilot.send_to(b"again", bind).await.unwrap();
+        assert_eq!(drain(&mut session, 100).await, b"again", "the stranger is not heard");
+        session.write_all(b"override").await.unwrap();
+        let mut buf = [0u8; 64];
+        let (n, _) = tokio::time::timeout(Duration::from_secs(1), autopilot.recv_from(&mut buf))
+            .await
+            .expect("the locked peer gets faithd's frames")
+            .unwrap();
+        assert_eq!(&buf[..n], b"override");
+        let nothing =
+            tokio::time::timeout(Duration::from_millis(100), stranger.recv_from(&mut buf)).await;
+        assert!(nothing.is_err(), "nothing goes to the stranger");
+    }
+
+    #[tokio::test]
+    async fn udpout_hears_only_its_peer() {
+        let autopilot = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let stranger = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+        let mut session = Endpoint::UdpOut(autopilot.local_addr().unwrap())
+            .open()
+            .await
+            .unwrap();
+        session.write_all(b"hello").await.unwrap();
+        let mut buf = [0u8; 64];
+        let (n, faithd) = autopilot.recv_from(&mut buf).await.unwrap();
+        assert_eq!(&buf[..n], b"hello");
+        stranger.send_to(b"redirect me", faithd).await.unwrap();
+        autopilot.send_to(b"telemetry", faithd).await.unwrap();
+        assert_eq!(drain(&mut session, 100).await, b"telemetry");
+        session.write_all(b"override").await.unwrap();
+        let (n, _) = autopilot.recv_from(&mut buf).await.unwrap();
+        assert_eq!(&buf[..n], b"override");
+        let nothing =
+            tokio::time::timeout(Duration::from_millis(100), stranger.recv_from(&mut buf)).await;
+        assert!(nothing.is_err(), "nothing goes to the stranger");
     }
 }

@@ -39,6 +39,9 @@ pub struct MavlinkConfig {
     pub component_id: u8,
     /// Messages from other systems (a ground station on the same radio) are ignored.
     pub autopilot_system_id: u8,
+    /// ...and from other components of the autopilot's system (a camera, a gimbal,
+    /// another companion): only the autopilot's own frames move the gate.
+    pub autopilot_component_id: u8,
     /// Period of faithd's HEARTBEAT.
     pub heartbeat_period_us: i64,
     /// First and longest wait before reopening a lost port.
@@ -57,6 +60,7 @@ impl Default for MavlinkConfig {
             system_id: 1,
             component_id: 191,
             autopilot_system_id: 1,
+            autopilot_component_id: 1,
             heartbeat_period_us: 1_000_000,
             reconnect_min_us: 100_000,
             reconnect_max_us: 2_000_000,
@@ -209,13 +213,23 @@ async fn serve(
     ));
     heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut skipped = 0u64;
+    let mut foreign = 0u64;
     let silence = Duration::from_micros(config.silence_timeout_us.max(1000) as u64);
     let mut deadline = tokio::time::Instant::now() + silence;
     loop {
         tokio::select! {
             got = reader.read_any_message::<MavMessage>() => match got {
                 Ok((header, msg)) => {
-                    if header.system_id != u32::from(config.autopilot_system_id) {
+                    if !from_autopilot(config, &header) {
+                        foreign += 1;
+                        if foreign.is_power_of_two() {
+                            tracing::warn!(
+                                system_id = header.system_id,
+                                component_id = header.component_id,
+                                foreign,
+                                "MAVLink frames from a sender other than the autopilot ignored"
+                            );
+                        }
                         continue;
                     }
                     deadline = tokio::time::Instant::now() + silence;
@@ -246,6 +260,12 @@ async fn serve(
             }
         }
     }
+}
+
+/// Only the autopilot (its system and component id) is believed.
+fn from_autopilot(config: &MavlinkConfig, header: &MavHeader) -> bool {
+    header.system_id == u32::from(config.autopilot_system_id)
+        && header.component_id == config.autopilot_component_id
 }
 
 fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOutputs) {

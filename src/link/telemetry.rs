@@ -1,16 +1,18 @@
 //! Turns the autopilot's MAVLink messages into vehicle state and attitude samples.
 
-use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage, MavModeFlag};
+use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage, MavModeFlag, MavSysStatusSensor};
 
 use super::clock_sync::ClockSync;
 use crate::attitude::AttitudeSample;
-use crate::safety::vehicle::{Heartbeat, RcChannels, VehicleState};
+use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels, VehicleState};
 
 /// What one received message changed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Update {
     Heartbeat,
     Rc,
+    /// SYS_STATUS with the pilot's receiver in it.
+    Radio,
     Attitude(AttitudeSample),
     /// Not a message faithd uses.
     Ignored,
@@ -44,8 +46,20 @@ pub fn apply(
                     .base_mode
                     .contains(MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED),
                 custom_mode: hb.custom_mode,
+                system_status: hb.system_status as u8,
             });
             Update::Heartbeat
+        }
+        MavMessage::SYS_STATUS(st) => {
+            let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+            if !st.onboard_control_sensors_present.contains(rc) {
+                return Update::Ignored;
+            }
+            state.radio = Some(RadioHealth {
+                t_us: rx_us,
+                healthy: st.onboard_control_sensors_health.contains(rc),
+            });
+            Update::Radio
         }
         MavMessage::RC_CHANNELS(rc) => {
             state.rc = Some(RcChannels {
@@ -107,11 +121,13 @@ mod tests {
         let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
             base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
             custom_mode: 2,
+            system_status: mavlink::dialects::common::MavState::MAV_STATE_CRITICAL,
             ..Default::default()
         });
         assert_eq!(apply(&mut state, &mut sync, &hb, 5), Update::Heartbeat);
         let h = state.heartbeat.unwrap();
         assert!(h.armed);
+        assert!(h.in_failsafe(), "iNav's failsafe is MAV_STATE_CRITICAL");
         assert_eq!((h.t_us, h.custom_mode), (5, 2));
         let rc = MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
             chancount: 6,
@@ -124,6 +140,33 @@ mod tests {
         assert_eq!(rc.channel_us(6), Some(1900));
         assert_eq!(rc.channel_us(7), None, "beyond chancount");
         assert_eq!(rc.channel_us(0), None);
+    }
+
+    #[test]
+    fn sys_status_reports_the_pilots_receiver() {
+        use mavlink::dialects::common::SYS_STATUS_DATA;
+        let mut state = VehicleState::default();
+        let mut sync = ClockSync::new(10);
+        let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+        let gyro = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO;
+        let lost = MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+            onboard_control_sensors_present: rc | gyro,
+            onboard_control_sensors_health: gyro,
+            ..Default::default()
+        });
+        assert_eq!(apply(&mut state, &mut sync, &lost, 3), Update::Radio);
+        assert_eq!(
+            state.radio,
+            Some(RadioHealth {
+                t_us: 3,
+                healthy: false
+            })
+        );
+        let no_receiver = MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+            onboard_control_sensors_present: gyro,
+            ..Default::default()
+        });
+        assert_eq!(apply(&mut state, &mut sync, &no_receiver, 4), Update::Ignored);
     }
 
     #[test]

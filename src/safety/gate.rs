@@ -26,6 +26,9 @@ pub struct GateConfig {
     pub heartbeat_stale_us: i64,
     /// A pipeline that has not finished a cycle for this long is unhealthy.
     pub pipeline_stale_us: i64,
+    /// The flight controller's status (read over MSP every send period) older than
+    /// this closes the gate.
+    pub fc_status_stale_us: i64,
 }
 
 impl Default for GateConfig {
@@ -38,6 +41,7 @@ impl Default for GateConfig {
             attitude_stale_us: 100_000,
             heartbeat_stale_us: 2_500_000,
             pipeline_stale_us: 100_000,
+            fc_status_stale_us: 100_000,
         }
     }
 }
@@ -60,6 +64,19 @@ pub enum PipelineProblem {
     NoAttitude,
 }
 
+/// The flight controller's own state, read over the MSP stream (MSP2_INAV_STATUS)
+/// at every send period: faster than MAVLink's 1 Hz HEARTBEAT, and it says whether
+/// iNav's MSP RC OVERRIDE mode is on, i.e. whether iNav would take faithd's roll.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FcStatus {
+    pub t_us: i64,
+    pub armed: bool,
+    /// iNav's FAILSAFE flight mode (radio lost, or the pilot's failsafe switch).
+    pub failsafe: bool,
+    /// iNav's MSP RC OVERRIDE mode (on only with the pilot's switch in AUTO).
+    pub override_on: bool,
+}
+
 /// What the roll command path (the MSP stream to iNav) last reported.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CommandPathStatus {
@@ -71,6 +88,8 @@ pub struct CommandPathStatus {
     /// A roll did not take effect on the flight controller; held until the pilot
     /// takes the switch out of AUTO.
     pub roll_not_in_effect: bool,
+    /// The flight controller's last status reply; `None` before the first.
+    pub fc: Option<FcStatus>,
 }
 
 /// The first condition that keeps the gate closed.
@@ -89,11 +108,17 @@ pub enum Blocker {
     SwitchNotAuto {
         value_us: u16,
     },
+    /// The autopilot's receiver reports the pilot's radio lost (SYS_STATUS).
+    RadioLost,
     NoHeartbeat,
     HeartbeatStale {
         age_us: i64,
     },
     Disarmed,
+    /// The autopilot is in failsafe: HEARTBEAT system_status, or iNav's FAILSAFE mode.
+    AutopilotFailsafe {
+        source: FailsafeSource,
+    },
     NoAttitude,
     AttitudeStale {
         age_us: i64,
@@ -107,6 +132,12 @@ pub enum Blocker {
     },
     FcSetupRefused,
     CommandPortDown,
+    NoFcStatus,
+    FcStatusStale {
+        age_us: i64,
+    },
+    /// iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll.
+    OverrideModeOff,
     OverrideWarmingUp {
         remaining_us: i64,
     },
@@ -125,6 +156,29 @@ impl std::fmt::Display for Blocker {
             Blocker::SwitchNotAuto { value_us } => {
                 write!(f, "pilot switch not in AUTO ({value_us} us)")
             }
+            Blocker::RadioLost => write!(
+                f,
+                "the autopilot reports the pilot's radio lost (SYS_STATUS RC receiver unhealthy)"
+            ),
+            Blocker::AutopilotFailsafe { source } => match source {
+                FailsafeSource::Heartbeat => write!(
+                    f,
+                    "the autopilot is in failsafe (HEARTBEAT system_status CRITICAL or worse)"
+                ),
+                FailsafeSource::FcStatus => {
+                    write!(f, "the autopilot is in failsafe (iNav's FAILSAFE mode)")
+                }
+            },
+            Blocker::NoFcStatus => write!(f, "no status from the flight controller over MSP yet"),
+            Blocker::FcStatusStale { age_us } => write!(
+                f,
+                "flight controller status over MSP stale ({} ms)",
+                age_us / 1000
+            ),
+            Blocker::OverrideModeOff => write!(
+                f,
+                "iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll"
+            ),
             Blocker::NoHeartbeat => write!(f, "no HEARTBEAT received yet"),
             Blocker::HeartbeatStale { age_us } => {
                 write!(f, "HEARTBEAT stale ({} ms)", age_us / 1000)
@@ -163,6 +217,16 @@ impl std::fmt::Display for Blocker {
     }
 }
 
+/// Which report said the autopilot is in failsafe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FailsafeSource {
+    /// MAVLink HEARTBEAT system_status CRITICAL or worse.
+    Heartbeat,
+    /// MSP2_INAV_STATUS: the FAILSAFE flight mode.
+    FcStatus,
+}
+
 /// Open, or closed with the first reason.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "state")]
@@ -186,7 +250,7 @@ pub fn evaluate(
     now_us: i64,
 ) -> GateState {
     match first_blocker(config, vehicle, pipeline, now_us)
-        .or_else(|| command_blocker(command, now_us))
+        .or_else(|| command_blocker(config, command, now_us))
     {
         Some(b) => GateState::Closed(b),
         None => GateState::Open,
@@ -195,13 +259,35 @@ pub fn evaluate(
 
 /// The command path comes last: its blockers matter only once the vehicle and the
 /// pipeline would allow a roll.
-fn command_blocker(command: &CommandPathStatus, now_us: i64) -> Option<Blocker> {
+fn command_blocker(
+    config: &GateConfig,
+    command: &CommandPathStatus,
+    now_us: i64,
+) -> Option<Blocker> {
     if command.setup_refused {
         return Some(Blocker::FcSetupRefused);
     }
     let Some(ready_at_us) = command.ready_at_us else {
         return Some(Blocker::CommandPortDown);
     };
+    let Some(fc) = &command.fc else {
+        return Some(Blocker::NoFcStatus);
+    };
+    let age_us = now_us - fc.t_us;
+    if age_us > config.fc_status_stale_us {
+        return Some(Blocker::FcStatusStale { age_us });
+    }
+    if fc.failsafe {
+        return Some(Blocker::AutopilotFailsafe {
+            source: FailsafeSource::FcStatus,
+        });
+    }
+    if !fc.armed {
+        return Some(Blocker::Disarmed);
+    }
+    if !fc.override_on {
+        return Some(Blocker::OverrideModeOff);
+    }
     if now_us < ready_at_us {
         return Some(Blocker::OverrideWarmingUp {
             remaining_us: ready_at_us - now_us,
@@ -236,6 +322,9 @@ fn first_blocker(
     if !(config.auto_min_us..=config.auto_max_us).contains(&value_us) {
         return Some(Blocker::SwitchNotAuto { value_us });
     }
+    if vehicle.radio.is_some_and(|r| !r.healthy) {
+        return Some(Blocker::RadioLost);
+    }
     let Some(hb) = &vehicle.heartbeat else {
         return Some(Blocker::NoHeartbeat);
     };
@@ -245,6 +334,11 @@ fn first_blocker(
     }
     if !hb.armed {
         return Some(Blocker::Disarmed);
+    }
+    if hb.in_failsafe() {
+        return Some(Blocker::AutopilotFailsafe {
+            source: FailsafeSource::Heartbeat,
+        });
     }
     let Some(att_us) = vehicle.last_attitude_us else {
         return Some(Blocker::NoAttitude);
@@ -269,18 +363,26 @@ fn first_blocker(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::safety::vehicle::{Heartbeat, RcChannels};
+    use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels};
 
+    const NOW: i64 = 10_000_000;
+    const FC_OK: FcStatus = FcStatus {
+        t_us: NOW - 10_000,
+        armed: true,
+        failsafe: false,
+        override_on: true,
+    };
     const READY: CommandPathStatus = CommandPathStatus {
         setup_refused: false,
         ready_at_us: Some(0),
         roll_not_in_effect: false,
+        fc: Some(FC_OK),
     };
 
     #[test]
     fn the_command_path_closes_it_last_and_names_why() {
         let cfg = GateConfig::default();
-        let now = 10_000_000;
+        let now = NOW;
         let (v, p) = all_good(now);
         let cases = [
             (
@@ -311,6 +413,53 @@ mod tests {
                 },
                 "roll_not_in_effect",
             ),
+            (
+                CommandPathStatus {
+                    fc: None,
+                    ..READY
+                },
+                "no_fc_status",
+            ),
+            (
+                CommandPathStatus {
+                    fc: Some(FcStatus {
+                        t_us: now - 150_000,
+                        ..FC_OK
+                    }),
+                    ..READY
+                },
+                "fc_status_stale",
+            ),
+            (
+                CommandPathStatus {
+                    fc: Some(FcStatus {
+                        failsafe: true,
+                        ..FC_OK
+                    }),
+                    ..READY
+                },
+                "autopilot_failsafe",
+            ),
+            (
+                CommandPathStatus {
+                    fc: Some(FcStatus {
+                        armed: false,
+                        ..FC_OK
+                    }),
+                    ..READY
+                },
+                "disarmed",
+            ),
+            (
+                CommandPathStatus {
+                    fc: Some(FcStatus {
+                        override_on: false,
+                        ..FC_OK
+                    }),
+                    ..READY
+                },
+                "override_mode_off",
+            ),
         ];
         for (path, kind) in cases {
             let state = evaluate(&cfg, &v, &p, &path, now);
@@ -334,6 +483,7 @@ mod tests {
                 t_us: now_us - 500_000,
                 armed: true,
                 custom_mode: 0,
+                system_status: 4,
             }),
             rc: Some(RcChannels {
                 t_us: now_us - 50_000,
@@ -341,6 +491,10 @@ mod tests {
                 values_us: channels,
             }),
             last_attitude_us: Some(now_us - 20_000),
+            radio: Some(RadioHealth {
+                t_us: now_us - 60_000,
+                healthy: true,
+            }),
         };
         let pipeline = PipelineStatus {
             last_cycle_us: Some(now_us - 10_000),
@@ -360,9 +514,9 @@ mod tests {
     #[test]
     fn each_condition_alone_closes_it() {
         let cfg = GateConfig::default();
-        let now = 10_000_000;
+        let now = NOW;
         type Breaker = fn(&mut VehicleState, &mut PipelineStatus);
-        let cases: [(Breaker, &str); 12] = [
+        let cases: [(Breaker, &str); 14] = [
             (|v, _| v.link_up = false, "link_down"),
             (|v, _| v.rc = None, "no_rc"),
             (|v, _| v.rc.as_mut().unwrap().t_us -= 400_000, "rc_stale"),
@@ -379,6 +533,14 @@ mod tests {
             (
                 |v, _| v.heartbeat.as_mut().unwrap().armed = false,
                 "disarmed",
+            ),
+            (
+                |v, _| v.heartbeat.as_mut().unwrap().system_status = 5,
+                "autopilot_failsafe",
+            ),
+            (
+                |v, _| v.radio.as_mut().unwrap().healthy = false,
+                "radio_lost",
             ),
             (|v, _| v.last_attitude_us = None, "no_attitude"),
             (
@@ -403,7 +565,7 @@ mod tests {
     #[test]
     fn switch_range_is_inclusive() {
         let cfg = GateConfig::default();
-        let now = 1_000_000;
+        let now = NOW;
         for (value, open) in [(1699, false), (1700, true), (2100, true), (2101, false)] {
             let (mut v, p) = all_good(now);
             v.rc.as_mut().unwrap().values_us[5] = value;

@@ -11,6 +11,28 @@ pub struct Heartbeat {
     pub armed: bool,
     /// The autopilot's flight mode number (iNav maps its modes to ArduPilot's).
     pub custom_mode: u32,
+    /// HEARTBEAT system_status (MAV_STATE): iNav says CRITICAL while its failsafe
+    /// is active (telemetry/mavlink.c).
+    pub system_status: u8,
+}
+
+/// MAV_STATE values that mean the autopilot is in trouble: CRITICAL (iNav: failsafe
+/// active), EMERGENCY, POWEROFF, FLIGHT_TERMINATION.
+const MAV_STATE_CRITICAL: u8 = 5;
+
+impl Heartbeat {
+    /// The autopilot reports a failsafe or worse: faithd has no business rolling.
+    pub fn in_failsafe(&self) -> bool {
+        self.system_status >= MAV_STATE_CRITICAL
+    }
+}
+
+/// The pilot's radio as the autopilot judges it (SYS_STATUS, the RC receiver's
+/// health bit: iNav clears it the moment frames stop, before its failsafe starts).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadioHealth {
+    pub t_us: i64,
+    pub healthy: bool,
 }
 
 /// The autopilot's last RC_CHANNELS: what the pilot's radio says.
@@ -43,6 +65,8 @@ pub struct VehicleState {
     pub rc: Option<RcChannels>,
     /// Daemon time of the last ATTITUDE (the samples themselves go to the pipeline).
     pub last_attitude_us: Option<i64>,
+    /// The pilot's receiver, when the autopilot reports it (SYS_STATUS).
+    pub radio: Option<RadioHealth>,
 }
 
 impl VehicleState {

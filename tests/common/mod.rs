@@ -10,7 +10,7 @@ use std::io::Read;
 use std::os::fd::OwnedFd;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, AtomicU16, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU16, Ordering};
 use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -27,9 +27,16 @@ pub struct Controls {
     pub send_rc: AtomicBool,
     /// Interleave random garbage and truncated frames with the real ones.
     pub garbage: AtomicBool,
-    /// Roll channel as iNav's MAVLink receiver holds it: the last override value
-    /// other than 0 and 65535 (echoed in RC_CHANNELS chan1).
+    /// Roll channel as iNav uses it (the MSP model's answer), echoed in RC_CHANNELS
+    /// chan1 as iNav reports it.
     pub roll_us: AtomicU16,
+    /// HEARTBEAT system_status (MAV_STATE; 4 ACTIVE, 5 CRITICAL = iNav's failsafe).
+    pub system_status: AtomicU8,
+    /// The pilot's receiver as SYS_STATUS reports it.
+    pub radio_healthy: AtomicBool,
+    /// iNav ignores faithd's frames although its set-up reads right (a fault the
+    /// roll confirmation must catch).
+    pub override_ignored: AtomicBool,
 }
 
 impl Default for Controls {
@@ -40,7 +47,10 @@ impl Default for Controls {
             send_attitude: AtomicBool::new(true),
             send_rc: AtomicBool::new(true),
             garbage: AtomicBool::new(false),
-            roll_us: AtomicU16::new(1500),
+            roll_us: AtomicU16::new(PILOT_ROLL_US),
+            system_status: AtomicU8::new(4),
+            radio_healthy: AtomicBool::new(true),
+            override_ignored: AtomicBool::new(false),
         }
     }
 }
@@ -66,9 +76,14 @@ pub struct MockAutopilot {
     pub rc_sent: Arc<Mutex<Vec<RcSent>>>,
     stop: Arc<AtomicBool>,
     threads: Vec<JoinHandle<()>>,
-    _slave: OwnedFd,
+    slave: Option<OwnedFd>,
     pub slave_path: PathBuf,
+    /// iNav's MSP port for faithd's roll stream, on a pseudo-terminal of its own.
+    pub msp: MspMock,
 }
+
+/// The pilot's roll stick in the mock: off centre, so whose value iNav uses is clear.
+pub const PILOT_ROLL_US: u16 = 1440;
 
 pub fn raw_pty() -> (OwnedFd, OwnedFd, PathBuf) {
     let pty = nix::pty::openpty(None, None).expect("openpty");
@@ -155,19 +170,13 @@ impl MockAutopilot {
         // Parse what faithd wrote.
         {
             let received = received.clone();
-            let controls = controls.clone();
             threads.push(std::thread::spawn(move || {
                 let mut reader = mavlink::MavlinkReader::new(ChunkReader {
                     rx: chunk_rx,
                     pending: Vec::new(),
                 });
+                // Like iNav beside a radio receiver, RC_CHANNELS_OVERRIDE changes nothing.
                 while let Ok((header, msg)) = reader.read_any_message::<MavMessage>() {
-                    if let MavMessage::RC_CHANNELS_OVERRIDE(o) = &msg
-                        && o.chan1_raw != 0
-                        && o.chan1_raw != u16::MAX
-                    {
-                        controls.roll_us.store(o.chan1_raw, Ordering::Relaxed);
-                    }
                     received.lock().unwrap().push(Received {
                         at: Instant::now(),
                         header,
@@ -206,7 +215,15 @@ impl MockAutopilot {
                     if tick.is_multiple_of(10) {
                         out.extend(encode(
                             seq,
-                            &heartbeat(controls.armed.load(Ordering::Relaxed)),
+                            &heartbeat(
+                                controls.armed.load(Ordering::Relaxed),
+                                controls.system_status.load(Ordering::Relaxed),
+                            ),
+                        ));
+                        seq = seq.wrapping_add(1);
+                        out.extend(encode(
+                            seq,
+                            &sys_status(controls.radio_healthy.load(Ordering::Relaxed)),
                         ));
                         seq = seq.wrapping_add(1);
                     }
@@ -229,17 +246,37 @@ impl MockAutopilot {
             }));
         }
         MockAutopilot {
+            msp: MspMock::start(controls.clone()),
             controls,
             received,
             rc_sent,
             stop,
             threads,
-            _slave: slave,
+            slave: Some(slave),
             slave_path,
         }
     }
 
-    /// Closes the port: faithd sees the device vanish.
+    /// Closes the MAVLink port alone (its cable out); the MSP port stays.
+    pub fn unplug_mavlink(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            t.join().unwrap();
+        }
+        self.slave = None;
+    }
+
+    /// faithd's `[command]` section for this mock's MSP port.
+    pub fn command_toml(&self) -> String {
+        self.msp.command_toml()
+    }
+
+    /// The roll iNav used, by time: see [`MspMock::first_roll`].
+    pub fn first_roll(&self) -> Option<Instant> {
+        self.msp.first_roll()
+    }
+
+    /// Closes the MAVLink and MSP ports: faithd sees both devices vanish.
     pub fn unplug(mut self) {
         self.stop.store(true, Ordering::Relaxed);
         for t in self.threads.drain(..) {
@@ -322,7 +359,7 @@ fn rc_channels(boot_ms: u32, switch_us: u16, roll_us: u16) -> MavMessage {
     })
 }
 
-fn heartbeat(armed: bool) -> MavMessage {
+fn heartbeat(armed: bool, system_status: u8) -> MavMessage {
     let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
     if armed {
         base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
@@ -332,8 +369,25 @@ fn heartbeat(armed: bool) -> MavMessage {
         mavtype: MavType::MAV_TYPE_QUADROTOR,
         autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
         base_mode,
-        system_status: MavState::MAV_STATE_ACTIVE,
+        system_status: match system_status {
+            5 => MavState::MAV_STATE_CRITICAL,
+            6 => MavState::MAV_STATE_EMERGENCY,
+            _ => MavState::MAV_STATE_ACTIVE,
+        },
         mavlink_version: 3,
+    })
+}
+
+/// SYS_STATUS as iNav sends it: the RC receiver present and enabled, healthy while
+/// the pilot's frames arrive.
+fn sys_status(radio_healthy: bool) -> MavMessage {
+    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
+    let gyro = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO;
+    MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+        onboard_control_sensors_present: rc | gyro,
+        onboard_control_sensors_enabled: rc | gyro,
+        onboard_control_sensors_health: if radio_healthy { rc | gyro } else { gyro },
+        ..Default::default()
     })
 }
 
@@ -347,9 +401,9 @@ fn with_garbage(frames: Vec<u8>, rng: &mut u64, seq: u8) -> Vec<u8> {
     };
     let mut out: Vec<u8> = (0..(next() % 40)).map(|_| next() as u8).collect();
     out.push(0xFD); // a start marker with nothing sensible after it
-    let hb = encode(seq, &heartbeat(false));
+    let hb = encode(seq, &heartbeat(false, 4));
     out.extend_from_slice(&hb[..hb.len() / 2]); // truncated: would say "disarmed"
-    let mut bad = encode(seq, &heartbeat(false));
+    let mut bad = encode(seq, &heartbeat(false, 4));
     let n = bad.len();
     bad[n - 1] ^= 0x55; // checksum broken: must be dropped, not believed
     out.extend(bad);
@@ -386,9 +440,19 @@ impl Drop for TempDir {
 }
 
 impl Daemon {
-    /// Starts faithd with the shipped defaults plus `extra` TOML, talking to `endpoint`.
+    /// Starts faithd with the shipped defaults plus `extra` TOML, talking MAVLink to
+    /// `endpoint` (`extra` must name the MSP port: [`MspMock::command_toml`]).
     pub fn start(endpoint: &str, extra: &str) -> Self {
         Self::start_with_env(endpoint, extra, &[])
+    }
+
+    /// Starts faithd against a mock autopilot: MAVLink on its pseudo-terminal, the
+    /// roll stream on its MSP pseudo-terminal, plus `extra` TOML.
+    pub fn start_mock(mock: &MockAutopilot, extra: &str) -> Self {
+        Self::start(
+            &format!("serial:{}", mock.slave_path.display()),
+            &format!("{}{extra}", mock.command_toml()),
+        )
     }
 
     /// As [`Daemon::start`], with extra environment variables.
@@ -487,58 +551,135 @@ pub fn point_symlink(link: &Path, target: &Path) {
     std::fs::rename(&tmp, link).unwrap();
 }
 
-/// Chunks of bytes with their arrival times.
-pub type Chunks = Arc<Mutex<Vec<(Instant, Vec<u8>)>>>;
-
-/// A pseudo-terminal standing in for the flight controller's MSP UART: collects
-/// every byte faithd writes to it.
-pub struct MspPort {
+/// iNav's MSP port on a pseudo-terminal, answered by faithd's own model of iNav
+/// (`faithd::closed_loop::inav_msp`: the committed set-up, MSP RC override timing as
+/// measured on SITL). It records the roll the model says iNav uses, every 5 ms and
+/// at every frame. A model encodes our assumptions: `tests/inav_sitl.rs` holds faithd
+/// to iNav's own firmware; these tests cover what SITL cannot be made to do (stale
+/// telemetry, garbage on the wire, a vanishing port).
+pub struct MspMock {
     pub slave_path: PathBuf,
-    pub bytes: Chunks,
+    /// (time, roll value the model's iNav uses)
+    pub roll_log: Arc<Mutex<Vec<(Instant, u16)>>>,
+    /// Every MSP_SET_RAW_RC faithd wrote: (time, channels).
+    pub frames: Arc<Mutex<Vec<(Instant, Vec<u16>)>>>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     _slave: OwnedFd,
 }
 
-impl MspPort {
-    pub fn start() -> Self {
+pub fn is_roll(v: u16) -> bool {
+    v == 1200 || v == 1800
+}
+
+impl MspMock {
+    pub fn start(controls: Arc<Controls>) -> Self {
+        use faithd::closed_loop::inav_msp::{FcView, InavMsp, Setup};
         let (master, slave, slave_path) = raw_pty();
-        let bytes = Arc::new(Mutex::new(Vec::new()));
+        let roll_log = Arc::new(Mutex::new(Vec::new()));
+        let frames = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
         let thread = {
-            let (bytes, stop) = (bytes.clone(), stop.clone());
+            let (roll_log, frames, stop) = (roll_log.clone(), frames.clone(), stop.clone());
             std::thread::spawn(move || {
+                let start = Instant::now();
+                let mut fc = InavMsp::new(Setup::default());
                 let mut buf = [0u8; 4096];
+                let mut seen_frames = 0;
                 while !stop.load(Ordering::Relaxed) {
                     let mut fds = [nix::poll::PollFd::new(
                         std::os::fd::AsFd::as_fd(&master),
                         nix::poll::PollFlags::POLLIN,
                     )];
-                    if nix::poll::poll(&mut fds, 10u16).unwrap_or(0) <= 0 {
-                        continue;
+                    let ready = nix::poll::poll(&mut fds, 5u16).unwrap_or(0) > 0;
+                    let now = Instant::now();
+                    let now_us = (now - start).as_micros() as i64;
+                    let switch_us = controls.switch_us.load(Ordering::Relaxed);
+                    let in_use = |fc: &InavMsp| {
+                        if controls.override_ignored.load(Ordering::Relaxed) {
+                            PILOT_ROLL_US
+                        } else {
+                            fc.roll_in_use(now_us, switch_us, PILOT_ROLL_US)
+                        }
+                    };
+                    let roll_us = in_use(&fc);
+                    let view = FcView {
+                        rc_in_use: [roll_us, 1500, 1500, 1400, 1900, switch_us, 1000, 1000],
+                        armed: controls.armed.load(Ordering::Relaxed),
+                        failsafe: controls.system_status.load(Ordering::Relaxed) >= 5,
+                    };
+                    if ready && let Ok(n) = nix::unistd::read(&master, &mut buf) && n > 0 {
+                        let reply = fc.receive(&buf[..n], now_us, view);
+                        let _ = nix::unistd::write(&master, &reply);
+                        let mut f = frames.lock().unwrap();
+                        for (_, ch) in &fc.frames[seen_frames..] {
+                            f.push((now, ch.clone()));
+                        }
+                        seen_frames = fc.frames.len();
                     }
-                    if let Ok(n) = nix::unistd::read(&master, &mut buf)
-                        && n > 0
-                    {
-                        bytes
-                            .lock()
-                            .unwrap()
-                            .push((Instant::now(), buf[..n].to_vec()));
-                    }
+                    let roll_us = in_use(&fc);
+                    controls.roll_us.store(roll_us, Ordering::Relaxed);
+                    roll_log.lock().unwrap().push((now, roll_us));
                 }
             })
         };
-        MspPort {
+        MspMock {
             slave_path,
-            bytes,
+            roll_log,
+            frames,
             stop,
             thread: Some(thread),
             _slave: slave,
         }
     }
+
+    /// faithd's `[command]` section for this port.
+    pub fn command_toml(&self) -> String {
+        format!(
+            "[command]\nmsp_endpoint = \"serial:{}\"\n",
+            self.slave_path.display()
+        )
+    }
+
+    /// When iNav first used a roll (1200 or 1800).
+    pub fn first_roll(&self) -> Option<Instant> {
+        self.roll_after(Instant::now() - Duration::from_secs(3600))
+    }
+
+    /// When iNav first used a roll at or after `t`.
+    pub fn roll_after(&self, t: Instant) -> Option<Instant> {
+        self.roll_log
+            .lock()
+            .unwrap()
+            .iter()
+            .find(|(at, v)| *at >= t && is_roll(*v))
+            .map(|(at, _)| *at)
+    }
+
+    /// When iNav first used something other than a roll at or after `t`.
+    pub fn unrolled_after(&self, t: Instant) -> Option<(Instant, u16)> {
+        self.roll_log
+            .lock()
+            .unwrap()
+            .iter()
+            .find(|(at, v)| *at >= t && !is_roll(*v))
+            .copied()
+    }
+
+    /// Waits until `pred` holds (or `timeout` passes).
+    pub fn wait_for(&self, timeout: Duration, pred: impl Fn(&MspMock) -> bool) -> bool {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if pred(self) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        pred(self)
+    }
 }
 
-impl Drop for MspPort {
+impl Drop for MspMock {
     fn drop(&mut self) {
         self.stop.store(true, Ordering::Relaxed);
         if let Some(t) = self.thread.take() {
