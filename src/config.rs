@@ -518,12 +518,6 @@ fn validate_daemon(c: &FaithdConfig) -> Result<(), Invalid> {
         || format!("must be 1 ms to 10 s, got {}", d.event_stale_us),
     )?;
     let s = &c.source;
-    #[cfg(not(feature = "caer"))]
-    check(
-        s.kind != crate::daemon::source::SourceKind::Caer,
-        "source.kind",
-        || "\"caer\" needs a faithd built with libcaer (cargo build --features caer)".into(),
-    )?;
     check(
         s.sim_first_approach_us >= 0,
         "source.sim_first_approach_us",

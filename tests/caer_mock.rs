@@ -1,7 +1,6 @@
-//! The libcaer adapter against the C mock of libcaer (compiled by libcaer-sys's
-//! `mock` feature): real FFI calls, real packet memory, a scripted disconnect.
-//! Run with `cargo test --features caer-mock --test caer_mock` (`.ci/run` does).
-#![cfg(feature = "caer-mock")]
+//! The libcaer adapter against the C mock of libcaer (built as a shared library by
+//! libcaer-sys's `mock` feature, a dev-dependency) and loaded at run time exactly as
+//! libcaer is: real FFI calls, real packet memory, a scripted disconnect.
 
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
@@ -9,7 +8,15 @@ use std::time::{Duration, Instant};
 use faithd::daemon::clock::DaemonClock;
 use faithd::event::Polarity;
 use faithd::source::caer::{Ended, run, serve_device};
-use libcaer_sys::mock;
+use libcaer_sys::Libcaer;
+use libcaer_sys::mock::{LIBRARY, Script};
+
+fn mock() -> (Libcaer, Script) {
+    (
+        Libcaer::load(Some(LIBRARY)).expect("the mock libcaer loads"),
+        Script::load(),
+    )
+}
 
 /// The mock is one global device: one test at a time.
 static DEVICE: Mutex<()> = Mutex::new(());
@@ -17,14 +24,15 @@ static DEVICE: Mutex<()> = Mutex::new(());
 #[test]
 fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
     let _device = DEVICE.lock().unwrap();
-    unsafe { mock::caer_mock_script(50, 0) };
+    let (lib, script) = mock();
+    unsafe { (script.set)(50, 0) };
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let clock = DaemonClock::start();
-    let ended = serve_device(&[(5, 0, 1), (5, 3, 42)], clock, &tx).unwrap();
+    let ended = serve_device(&lib, &[(5, 0, 1), (5, 3, 42)], clock, &tx).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
-    assert_eq!(unsafe { mock::caer_mock_config_value(5, 3) }, 42);
+    assert_eq!(unsafe { (script.config_value)(5, 3) }, 42);
     assert_eq!(
-        unsafe { mock::caer_mock_config_value(-2, 1) },
+        unsafe { (script.config_value)(-2, 1) },
         1,
         "blocking mode set"
     );
@@ -46,10 +54,12 @@ fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
 #[test]
 fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
     let _device = DEVICE.lock().unwrap();
-    unsafe { mock::caer_mock_script(20, 3) };
+    let (lib, script) = mock();
+    unsafe { (script.set)(20, 3) };
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let source = std::thread::spawn(move || {
         run(
+            &lib,
             Vec::new(),
             DaemonClock::start(),
             tx,
@@ -68,7 +78,7 @@ fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
         "only {events} events: the camera did not come back"
     );
     // One open, three refused while it was gone, one that found it again.
-    assert_eq!(unsafe { mock::caer_mock_open_attempts() }, 5);
+    assert_eq!(unsafe { (script.open_attempts)() }, 5);
     drop(rx);
     source.join().unwrap();
 }

@@ -277,7 +277,10 @@ fn both_ports_vanishing_and_returning_is_survived_and_released() {
     point_symlink(&msp_link, &mock.msp.slave_path);
     let mut daemon = Daemon::start(
         &format!("serial:{}", link.display()),
-        &format!("[command]\nmsp_endpoint = \"serial:{}\"\n", msp_link.display()),
+        &format!(
+            "[command]\nmsp_endpoint = \"serial:{}\"\n",
+            msp_link.display()
+        ),
     );
     wait_for_roll(&mock, &daemon, "before the unplug");
     // Mid-roll, both cables out.
@@ -292,7 +295,10 @@ fn both_ports_vanishing_and_returning_is_survived_and_released() {
     // owed since the roll was cut), and the next approach is avoided.
     wait_for_roll(&mock, &daemon, "after the port came back");
     let first = mock.msp.frames.lock().unwrap()[0].1.clone();
-    assert_eq!(first[0], CENTRE_US, "first frame after the reconnect: {first:?}");
+    assert_eq!(
+        first[0], CENTRE_US,
+        "first frame after the reconnect: {first:?}"
+    );
     let log = daemon.log();
     assert!(log.contains("autopilot link lost"), "{log}");
     assert!(log.contains("MSP command port lost"), "{log}");
@@ -313,7 +319,10 @@ fn the_mavlink_link_lost_mid_roll_releases_on_the_msp_port_at_once() {
     let at = Instant::now();
     std::thread::sleep(Duration::from_millis(500));
     let centre = centre_frame_after(&mock.msp, at).expect("released");
-    eprintln!("measured: MAVLink port gone, centre written {:?} after", centre - at);
+    eprintln!(
+        "measured: MAVLink port gone, centre written {:?} after",
+        centre - at
+    );
     // The port reports the loss at once, or ATTITUDE goes stale (100 ms).
     assert!(
         centre - at <= Duration::from_millis(100) + 2 * SEND_PERIOD + SLACK,
@@ -367,12 +376,9 @@ fn a_daemon_restarted_after_a_kill_mid_roll_releases_first() {
     let before = mock.msp.frames.lock().unwrap().len();
     let daemon = Daemon::start_mock(&mock, "");
     assert!(
-        mock.msp.wait_for(Duration::from_secs(3), |m| m
-            .frames
-            .lock()
-            .unwrap()
-            .len()
-            > before),
+        mock.msp
+            .wait_for(Duration::from_secs(3), |m| m.frames.lock().unwrap().len()
+                > before),
         "the restarted faithd wrote nothing: {}",
         daemon.log()
     );
@@ -381,7 +387,10 @@ fn a_daemon_restarted_after_a_kill_mid_roll_releases_first() {
         "measured: restarted faithd's first frame {:?} after the kill",
         at - killed
     );
-    assert_eq!(first[0], CENTRE_US, "its first frame is the release: {first:?}");
+    assert_eq!(
+        first[0], CENTRE_US,
+        "its first frame is the release: {first:?}"
+    );
 }
 
 #[test]
@@ -534,4 +543,56 @@ fn a_simulated_camera_needs_the_command_line_opt_in() {
         shipped.source.kind,
         faithd::daemon::source::SourceKind::Caer
     );
+}
+
+#[test]
+fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let dir = TempDir::new("caer-run");
+    let run = |libcaer_path: &str| {
+        let config = dir.0.join("faithd.toml");
+        std::fs::write(
+            &config,
+            format!(
+                "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"caer\"\nlibcaer_path = \"{libcaer_path}\"\n[record]\nenabled = false\n",
+                mock.slave_path.display(),
+                mock.command_toml()
+            ),
+        )
+        .unwrap();
+        let log = std::fs::File::create(dir.0.join("faithd.log")).unwrap();
+        let child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+            .args(["run", "--config"])
+            .arg(&config)
+            .stderr(log)
+            .spawn()
+            .unwrap();
+        (child, dir.0.join("faithd.log"))
+    };
+    // The real camera's library where it is not installed: refused, with the reason.
+    let (mut child, log) = run("/nonexistent/libcaer.so.3");
+    let status = child.wait().unwrap();
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert_eq!(status.code(), Some(2), "{text}");
+    assert!(text.contains("source.libcaer_path"), "{text}");
+    assert!(text.contains("libcaer not found"), "{text}");
+    // The C mock of libcaer in its place: the same binary opens it and streams,
+    // with no --simulated-camera.
+    let (mut child, log) = run(libcaer_sys::mock::LIBRARY);
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let streaming = loop {
+        let text = std::fs::read_to_string(&log).unwrap_or_default();
+        if text.contains("camera open: streaming") || Instant::now() > deadline {
+            break text;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let _ = nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGTERM,
+    );
+    assert!(child.wait().unwrap().success(), "{streaming}");
+    assert!(streaming.contains("libcaer loaded"), "{streaming}");
+    assert!(streaming.contains("camera open: streaming"), "{streaming}");
+    assert!(!streaming.contains("SIMULATED CAMERA"), "{streaming}");
 }

@@ -97,10 +97,10 @@ fn manoeuvres(log: &str) -> Vec<Manoeuvre> {
                 end_us: None,
                 roll_us: field(line, "roll_us").expect("roll_us") as u16,
             });
-        } else if line.contains("manoeuvre completed") || line.contains("manoeuvre cut") {
-            if let Some(m) = out.last_mut() {
-                m.end_us = field(line, "unix_us");
-            }
+        } else if (line.contains("manoeuvre completed") || line.contains("manoeuvre cut"))
+            && let Some(m) = out.last_mut()
+        {
+            m.end_us = field(line, "unix_us");
         }
     }
     out
@@ -148,19 +148,15 @@ fn figures(monitor: &Monitor, m: &Manoeuvre) -> RouteFigures {
 fn assert_only_roll_changed(monitor: &Monitor, radio: &Radio, from_us: i64, to_us: i64) {
     let sent = radio.sent.lock().unwrap().clone();
     for s in monitor.between(from_us, to_us) {
-        // What the pilot sent up to 50 ms before the sample (iNav's receiver latency).
-        let candidates: Vec<Vec<u16>> = sent
+        // What the pilot sent from 50 ms before the sample (iNav's receiver latency)
+        // to 30 ms after it (the sample is stamped when MSP_RC is asked, iNav answers
+        // on its next MSP turn), or the last thing sent before that.
+        let recent = sent
             .iter()
-            .filter(|(t, _)| *t <= s.t_us)
-            .rev()
-            .take_while(|(t, _)| *t >= s.t_us - 50_000)
-            .chain(
-                sent.iter()
-                    .filter(|(t, _)| *t < s.t_us - 50_000)
-                    .next_back(),
-            )
-            .map(|(_, ch)| inav_order(ch))
-            .collect();
+            .filter(|(t, _)| *t >= s.t_us - 50_000 && *t <= s.t_us + 30_000);
+        let before = sent.iter().rfind(|(t, _)| *t < s.t_us - 50_000);
+        let candidates: Vec<Vec<u16>> =
+            recent.chain(before).map(|(_, ch)| inav_order(ch)).collect();
         assert!(
             candidates
                 .iter()
@@ -276,5 +272,319 @@ fn the_roll_route_works_beside_the_pilots_radio() {
             .between(started_us, end_us)
             .iter()
             .all(|s| s.armed() && s.mode(MODE_ANGLE))
+    );
+}
+
+/// The journal's first line containing `needle`, with its `unix_us`.
+fn journal_time(log: &str, needle: &str) -> Option<i64> {
+    log.lines()
+        .find(|l| l.contains(needle))
+        .and_then(|l| field(l, "unix_us"))
+}
+
+#[test]
+fn every_stop_and_a_restart_after_a_kill_give_roll_back() {
+    use nix::sys::signal::Signal;
+    let bench = Bench::new(&[]);
+    bench.radio.set(CH_SWITCH, AUTO_US);
+    for signal in [Signal::SIGTERM, Signal::SIGINT, Signal::SIGHUP] {
+        let mut daemon = bench.faithd(1_000_000, "");
+        assert!(
+            daemon.wait_for_log("manoeuvre started", Duration::from_secs(8)),
+            "{signal}: {}",
+            daemon.log()
+        );
+        std::thread::sleep(Duration::from_millis(300));
+        let at = unix_us();
+        assert!(daemon.signal(signal).success(), "{signal}");
+        let log = daemon.log();
+        assert!(log.contains("3 centre frames written"), "{signal}: {log}");
+        std::thread::sleep(Duration::from_millis(1500));
+        let after = bench.monitor.between(at, unix_us());
+        let centre = after
+            .iter()
+            .find(|s| s.roll() == NEUTRAL_US)
+            .unwrap_or_else(|| panic!("{signal}: iNav kept the roll"));
+        // Then iNav's own MSP override times out (200 ms + failsafe_delay 0.5 s after
+        // the last frame) and roll is the pilot's stick again, even in AUTO.
+        let pilot = after
+            .iter()
+            .find(|s| s.roll() == PILOT_ROLL_US)
+            .unwrap_or_else(|| panic!("{signal}: the pilot's roll never came back"));
+        eprintln!(
+            "measured ({signal} mid-roll): centre in use {:.1} ms after the signal, the pilot's stick {:.0} ms after",
+            (centre.t_us - at) as f64 / 1000.0,
+            (pilot.t_us - at) as f64 / 1000.0
+        );
+        assert!(centre.t_us - at <= RELEASE_BOUND_US, "{signal}");
+        assert!(
+            after
+                .iter()
+                .filter(|s| s.t_us >= centre.t_us)
+                .all(|s| s.roll() == NEUTRAL_US || s.roll() == PILOT_ROLL_US),
+            "{signal}: a roll after the release"
+        );
+        // The next daemon must wait for iNav's override to recover from the gap.
+        std::thread::sleep(Duration::from_millis(200));
+    }
+
+    // SIGKILL mid-roll (OOM, watchdog, crash): nothing released, and iNav holds the
+    // roll until a restarted faithd's first frames put the centre back.
+    let mut daemon = bench.faithd(1_000_000, "");
+    assert!(daemon.wait_for_log("manoeuvre started", Duration::from_secs(8)));
+    let started = journal_time(&daemon.log(), "manoeuvre started").unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    daemon.signal(Signal::SIGKILL);
+    let killed = unix_us();
+    let restarted = bench.faithd(60_000_000, "");
+    std::thread::sleep(Duration::from_millis(1000));
+    let after = bench.monitor.between(killed, unix_us());
+    let centre = after
+        .iter()
+        .find(|s| s.roll() == NEUTRAL_US)
+        .unwrap_or_else(|| panic!("the restarted faithd did not release:\n{}", restarted.log()));
+    eprintln!(
+        "measured (SIGKILL {:.0} ms into a roll, restarted at once): centre in use {:.1} ms after the kill",
+        (killed - started) as f64 / 1000.0,
+        (centre.t_us - killed) as f64 / 1000.0
+    );
+    assert!(
+        after
+            .iter()
+            .filter(|s| s.t_us > centre.t_us)
+            .all(|s| s.roll() == NEUTRAL_US),
+        "the restarted faithd holds the centre in AUTO"
+    );
+    // Faster than iNav's own timeout of the dead stream (0.7 s here).
+    assert!(centre.t_us - killed < 700_000);
+}
+
+#[test]
+fn radio_loss_and_inavs_failsafe_close_the_gate() {
+    let bench = Bench::new(&[]);
+    bench.radio.set(CH_SWITCH, AUTO_US);
+    // The first approach long after the radio is gone.
+    let mut daemon = bench.faithd(5_000_000, "");
+    assert!(
+        daemon.wait_for_log("safety gate open", Duration::from_secs(5)),
+        "{}",
+        daemon.log()
+    );
+    let lost = unix_us();
+    bench.radio.transmit(false);
+    let failsafe = bench
+        .monitor
+        .wait_until(Duration::from_secs(3), |s| s.mode(MODE_FAILSAFE))
+        .expect("iNav entered failsafe");
+    std::thread::sleep(Duration::from_secs(6));
+    let log = daemon.log();
+    assert!(daemon.stop().success(), "{log}");
+    eprintln!(
+        "measured: iNav in FAILSAFE {:.0} ms after the radio stopped",
+        (failsafe.t_us - lost) as f64 / 1000.0
+    );
+    // SYS_STATUS says the radio is gone within a report or two (120 ms), long
+    // before iNav's failsafe starts; then iNav's status reports the failsafe too.
+    assert!(
+        log.contains("safety gate closed: the autopilot reports the pilot's radio lost"),
+        "{log}"
+    );
+    assert!(log.contains("failsafe=true"), "{log}");
+    // The pipeline wanted to roll at the approach, but nothing was commanded.
+    assert!(log.contains("decision: roll"), "{log}");
+    assert!(!log.contains("manoeuvre started"), "{log}");
+    let during = bench.monitor.between(failsafe.t_us, unix_us());
+    assert!(
+        during.iter().all(|s| s.roll() != 1200 && s.roll() != 1800),
+        "a roll in use during the failsafe"
+    );
+}
+
+#[test]
+fn an_msp_receiver_is_refused_and_never_streamed_to() {
+    // receiver_type = MSP: iNav would take faithd's frame as the pilot's whole frame.
+    let sitl = Sitl::with_committed_setup(&["set receiver_type = MSP"]);
+    let monitor = Monitor::start(&sitl);
+    std::thread::sleep(Duration::from_millis(300));
+    let before = monitor.latest().expect("a sample").rc;
+    let bench_faithd = Daemon::start_config(
+        &format!(
+            "[mavlink]\nendpoint = \"{}\"\n[command]\nmsp_endpoint = \"{}\"\n\
+             [source]\nkind = \"sim\"\n[record]\nenabled = false\n",
+            sitl.endpoint(UART_MAVLINK),
+            sitl.endpoint(UART_MSP_FAITHD)
+        ),
+        &[],
+    );
+    let from = unix_us();
+    assert!(
+        bench_faithd.wait_for_log("set-up refused", Duration::from_secs(5)),
+        "{}",
+        bench_faithd.log()
+    );
+    std::thread::sleep(Duration::from_secs(2));
+    let log = bench_faithd.log();
+    assert!(log.contains("set receiver_type = SERIAL"), "{log}");
+    assert!(!log.contains("MSP roll stream started"), "{log}");
+    for s in monitor.between(from, unix_us()) {
+        assert_eq!(s.rc, before, "iNav's channels changed under faithd");
+    }
+}
+
+/// `faithd check-fc` against this SITL; (exit code, stdout). Exit 1 (the flight
+/// controller could not be read: SITL still settling after a save) is retried.
+fn check_fc(sitl: &Sitl) -> (i32, String) {
+    let dir = common::TempDir::new("check-fc");
+    let config = dir.0.join("faithd.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[command]\nmsp_endpoint = \"{}\"\n",
+            sitl.endpoint(UART_MSP_FAITHD)
+        ),
+    )
+    .unwrap();
+    let mut tries = Vec::new();
+    for _ in 0..5 {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+            .args(["check-fc", "--config"])
+            .arg(&config)
+            .output()
+            .unwrap();
+        let code = out.status.code().unwrap_or(-1);
+        if code != 1 {
+            return (code, String::from_utf8_lossy(&out.stdout).into_owned());
+        }
+        tries.push(String::from_utf8_lossy(&out.stderr).into_owned());
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    panic!("check-fc could not read SITL: {tries:?}\n{}", sitl.log());
+}
+
+#[test]
+fn check_fc_refuses_each_known_bad_wiring_and_its_fix_works() {
+    let sitl = Sitl::with_committed_setup(&[]);
+    let (code, out) = check_fc(&sitl);
+    assert_eq!(code, 0, "the committed set-up passes:\n{out}");
+    // (what breaks it, the check that must fail, the CLI fix it must name)
+    let cases = [
+        (
+            "set receiver_type = MSP",
+            "pilot's receiver",
+            "set receiver_type = SERIAL",
+        ),
+        (
+            "set msp_override_channels = 15",
+            "override channels",
+            "set msp_override_channels = 1",
+        ),
+        ("aux 2 0 0 900 900", "override mode", "aux 2 50 1 1700 2100"),
+        (
+            "aux 2 50 1 1300 2100",
+            "override mode",
+            "aux 2 50 1 1700 2100",
+        ),
+        ("aux 0 0 1 1700 2100", "arm switch", "aux 0 0"),
+        (
+            "set mavlink_extra1_rate = 10",
+            "ATTITUDE rate",
+            "set mavlink_extra1_rate = 50",
+        ),
+        (
+            "set mavlink_rc_chan_rate = 3",
+            "RC_CHANNELS rate",
+            "set mavlink_rc_chan_rate = 50",
+        ),
+        (
+            "set mavlink_version = 1",
+            "MAVLink version",
+            "set mavlink_version = 2",
+        ),
+    ];
+    for (breaks, what, fix) in cases {
+        sitl.cli_save(&[breaks.to_string()]);
+        let (code, out) = check_fc(&sitl);
+        assert_eq!(code, 2, "{breaks}: refused\n{out}");
+        let line = out
+            .lines()
+            .position(|l| l.starts_with("FAIL") && l.contains(what))
+            .unwrap_or_else(|| panic!("{breaks}: no FAIL for {what}:\n{out}"));
+        let fix_line = out.lines().nth(line + 1).unwrap_or("");
+        assert!(
+            fix_line.contains(fix),
+            "{breaks}: fix {fix_line:?} lacks {fix}"
+        );
+        // The fix as printed, pasted into iNav's CLI, makes the check pass again.
+        // A parenthesis is advice for the reader, the rest is CLI lines.
+        let pasted: Vec<String> = fix_line
+            .split_once("fix (iNav CLI): ")
+            .map(|(_, f)| {
+                f.split(" (")
+                    .next()
+                    .unwrap()
+                    .split(", then ")
+                    .map(str::to_string)
+                    .collect()
+            })
+            .unwrap();
+        let pasted: Vec<String> = pasted
+            .into_iter()
+            .map(|l| l.replace("<other aux channel>", "2"))
+            .collect();
+        sitl.cli_save(&pasted);
+        let (code, out) = check_fc(&sitl);
+        assert_eq!(code, 0, "{breaks}: after {pasted:?}:\n{out}");
+    }
+}
+
+#[test]
+fn the_bench_script_measures_rates_switch_and_a_roll_on_inav() {
+    let bench = Bench::new(&[]);
+    let dir = common::TempDir::new("hil");
+    let report = dir.0.join("report.json");
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/hil/bench_check.py");
+    let child = std::process::Command::new("python3")
+        .arg(script)
+        .arg("--device")
+        .arg(format!("tcp:127.0.0.1:{}", bench.sitl.port(UART_MAVLINK)))
+        .arg("--msp-device")
+        .arg(bench.sitl.endpoint(UART_MSP_FAITHD))
+        .arg("--non-interactive")
+        .arg("--report")
+        .arg(&report)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 with pymavlink is needed for the bench script");
+    // The pilot: MANUAL for the rate check and the first switch reading, then AUTO.
+    std::thread::sleep(Duration::from_secs(7));
+    bench.radio.set(CH_SWITCH, AUTO_US);
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "bench script failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    eprintln!("bench report on SITL: {r}");
+    assert_eq!(r["heartbeat"], true);
+    // iNav's fastest stream: a message every 40 ms (24.6 Hz measured).
+    for stream in ["ATTITUDE", "RC_CHANNELS"] {
+        let hz = r["rates_hz"][stream].as_f64().unwrap();
+        assert!((22.0..=26.0).contains(&hz), "{stream} at {hz} Hz");
+    }
+    assert_eq!(r["manual_value_us"], MANUAL_US);
+    assert_eq!(r["auto_value_us"], AUTO_US);
+    let roll = &r["test_roll"];
+    assert_eq!(roll["echo_seen"], true, "{roll}");
+    // RC_CHANNELS arrives every 40 ms: the echo comes within a period or two.
+    assert!(roll["echo_delay_ms"].as_f64().unwrap() < 100.0, "{roll}");
+    let held = roll["echo_held_s"].as_f64().unwrap();
+    assert!((1.4..=1.6).contains(&held), "echo held {held} s");
+    assert!(
+        roll["centred_after_release_ms"].as_f64().unwrap() < 100.0,
+        "{roll}"
     );
 }

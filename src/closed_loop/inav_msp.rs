@@ -16,8 +16,8 @@ use crate::command::msp_port::{
 
 /// MSP_BOXIDS as iNav 9.1's SITL build answers it.
 pub const BOX_IDS: [u8; 29] = [
-    0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44, 50, 62,
-    63, 65, 66, 67,
+    0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44, 50, 62, 63,
+    65, 66, 67,
 ];
 
 /// What the vehicle side of the model is doing when faithd asks.

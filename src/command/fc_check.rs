@@ -254,11 +254,11 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
     let (problem, fix) = match receiver {
         "MSP" => (
             Some("iNav applies MSP RC override only when its receiver is not MSP (rx/rx.c); with an MSP receiver faithd's frame would replace the pilot's whole frame: throttle, arm and the switch".to_string()),
-            Some("set receiver_type = SERIAL and serialrx_provider = <your radio's protocol>".to_string()),
+            Some(format!("set receiver_type = SERIAL (serialrx_provider is {provider}: set it to your radio's protocol if that is not it)")),
         ),
         "NONE" => (
             Some("no receiver: the pilot's radio must reach iNav for the switch to work".to_string()),
-            Some("set receiver_type = SERIAL and serialrx_provider = <your radio's protocol>".to_string()),
+            Some(format!("set receiver_type = SERIAL (serialrx_provider is {provider}: set it to your radio's protocol if that is not it)")),
         ),
         "SERIAL" | "SIM (SITL)" => (None, None),
         _ => (Some("unknown receiver type".to_string()), None),
@@ -333,8 +333,12 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             )
         })
     };
+    // A stray range is rewritten in its own slot; a missing one takes a free slot.
     let fix = problem.as_ref().map(|_| match stray {
-        Some(m) => format!("aux {} 0 0 900 900, then {auto_fix}", m.slot),
+        Some(m) => format!(
+            "aux {} {MODE_MSP_RC_OVERRIDE} {switch_aux} {} {}",
+            m.slot, want.auto_min_us, want.auto_max_us
+        ),
         None => auto_fix.clone(),
     });
     let found = if overrides.is_empty() {
@@ -363,7 +367,7 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
                 m.channel()
             )
         }),
-        arm_on_switch.map(|m| format!("move ARM to its own switch: aux {} 0 <other aux channel> 1700 2100", m.slot)),
+        arm_on_switch.map(|m| format!("aux {} 0 <other aux channel> 1700 2100 (ARM on a switch of its own)", m.slot)),
     );
 
     let attitude_period = mavlink_stream_period_us(s.mavlink_extra1_rate);
@@ -443,9 +447,9 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             Some(_) => "MSP RC OVERRIDE offered".into(),
             None => "MSP RC OVERRIDE not offered".into(),
         },
-        override_bit
-            .is_none()
-            .then(|| "this iNav build lacks USE_MSP_RC_OVERRIDE: it cannot take faithd's roll".into()),
+        override_bit.is_none().then(|| {
+            "this iNav build lacks USE_MSP_RC_OVERRIDE: it cannot take faithd's roll".into()
+        }),
         override_bit
             .is_none()
             .then(|| "flash an iNav build with USE_MSP_RC_OVERRIDE (most targets have it)".into()),
@@ -477,17 +481,19 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
 
     let passed = items.iter().all(|i| i.problem.is_none());
     FcReport {
-        route: override_bit.filter(|_| passed).map(|msp_override| RouteFacts {
-            roll_frame_index,
-            warmup_us,
-            hold_after_stop_us,
-            attitude_period_us: attitude_period.unwrap_or(0),
-            rc_period_us: rc_period.unwrap_or(0),
-            status_bits: StatusBits {
-                failsafe: position(MODE_FAILSAFE),
-                msp_override,
-            },
-        }),
+        route: override_bit
+            .filter(|_| passed)
+            .map(|msp_override| RouteFacts {
+                roll_frame_index,
+                warmup_us,
+                hold_after_stop_us,
+                attitude_period_us: attitude_period.unwrap_or(0),
+                rc_period_us: rc_period.unwrap_or(0),
+                status_bits: StatusBits {
+                    failsafe: position(MODE_FAILSAFE),
+                    msp_override,
+                },
+            }),
         items,
     }
 }
@@ -608,8 +614,8 @@ mod tests {
             mavlink_version: 2,
             // As iNav 9.1's SITL build lists them (MSP_BOXIDS).
             box_ids: vec![
-                0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43,
-                44, 50, 62, 63, 65, 66, 67,
+                0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44,
+                50, 62, 63, 65, 66, 67,
             ],
         }
     }
@@ -692,10 +698,10 @@ mod tests {
         refused(s, "override mode", "aux 1 50 1 1700 2100");
         let mut s = good();
         s.modes[2].start_step = 20; // active from 1400 us: in MANUAL too
-        refused(s, "override mode", "aux 2 0 0 900 900");
+        refused(s, "override mode", "aux 2 50 1 1700 2100");
         let mut s = good();
         s.modes[2].aux_index = 2;
-        refused(s, "override mode", "aux 2 0 0 900 900");
+        refused(s, "override mode", "aux 2 50 1 1700 2100");
         let mut s = good();
         s.modes[0].aux_index = 1;
         refused(s, "arm switch", "aux 0 0");

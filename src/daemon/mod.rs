@@ -122,22 +122,25 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
             );
             Box::new(move |clock, batches| source::run_sim(source_config, camera, clock, batches))
         }
-        #[cfg(feature = "caer")]
-        source::SourceKind::Caer => Box::new(move |clock, batches| {
-            crate::source::caer::run(
-                source_config.caer_settings,
-                clock,
-                batches,
-                Duration::from_secs(2),
-            )
-        }),
-        #[cfg(not(feature = "caer"))]
         source::SourceKind::Caer => {
-            return Err(DaemonError::Config {
-                key: "source.kind",
-                reason: "this faithd was built without libcaer (cargo build --features caer)"
-                    .into(),
-            });
+            let path = (!source_config.libcaer_path.is_empty())
+                .then_some(source_config.libcaer_path.as_str());
+            let lib = libcaer_sys::Libcaer::load(path).map_err(|e| DaemonError::Config {
+                key: "source.libcaer_path",
+                reason: format!(
+                    "{e}; install iniVation's libcaer 3 (it is not in Debian: see the README, The live camera) or name its file here"
+                ),
+            })?;
+            tracing::info!(library = %lib.path, "libcaer loaded");
+            Box::new(move |clock, batches| {
+                crate::source::caer::run(
+                    &lib,
+                    source_config.caer_settings,
+                    clock,
+                    batches,
+                    Duration::from_secs(2),
+                )
+            })
         }
     };
     let hooks = Hooks {

@@ -15,17 +15,20 @@ use crate::synth::{LoomingEdges, looming_edge_events};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SourceKind {
-    /// Generated approaches to a pole, played in real time (no camera needed).
+    /// The DVS240/DAVIS240 on USB through libcaer (opened at run time).
     #[default]
-    Sim,
-    /// The DVS240/DAVIS240 on USB through libcaer (a build with `--features caer`).
     Caer,
+    /// Generated approaches to a pole, played in real time: the bench and tests only,
+    /// and `faithd run` takes it only with `--simulated-camera`.
+    Sim,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SourceConfig {
     pub kind: SourceKind,
+    /// caer: where libcaer is; empty = the system loader's search for libcaer.so.3.
+    pub libcaer_path: String,
     /// caer: libcaer settings applied after its defaults, as [module, parameter,
     /// value] (biases and filters; see libcaer's davis.h for the addresses).
     pub caer_settings: Vec<(i8, u8, u32)>,
@@ -39,7 +42,8 @@ pub struct SourceConfig {
 impl Default for SourceConfig {
     fn default() -> Self {
         Self {
-            kind: SourceKind::Sim,
+            kind: SourceKind::Caer,
+            libcaer_path: String::new(),
             caer_settings: Vec::new(),
             sim_first_approach_us: 1_000_000,
             sim_repeat_us: 5_000_000,

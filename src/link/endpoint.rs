@@ -239,14 +239,24 @@ mod tests {
         let probe = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
         let bind = probe.local_addr().unwrap();
         drop(probe);
-        let mut session = Endpoint::UdpListen { bind, peer: None }.open().await.unwrap();
+        let mut session = Endpoint::UdpListen { bind, peer: None }
+            .open()
+            .await
+            .unwrap();
         let autopilot = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
         let stranger = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
-        autopilot.send_to(b"from the autopilot", bind).await.unwrap();
+        autopilot
+            .send_to(b"from the autopilot", bind)
+            .await
+            .unwrap();
         assert_eq!(drain(&mut session, 100).await, b"from the autopilot");
         stranger.send_to(b"redirect me", bind).await.unwrap();
         autopilot.send_to(b"again", bind).await.unwrap();
-        assert_eq!(drain(&mut session, 100).await, b"again", "the stranger is not heard");
+        assert_eq!(
+            drain(&mut session, 100).await,
+            b"again",
+            "the stranger is not heard"
+        );
         session.write_all(b"override").await.unwrap();
         let mut buf = [0u8; 64];
         let (n, _) = tokio::time::timeout(Duration::from_secs(1), autopilot.recv_from(&mut buf))

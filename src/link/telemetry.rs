@@ -166,7 +166,10 @@ mod tests {
             onboard_control_sensors_present: gyro,
             ..Default::default()
         });
-        assert_eq!(apply(&mut state, &mut sync, &no_receiver, 4), Update::Ignored);
+        assert_eq!(
+            apply(&mut state, &mut sync, &no_receiver, 4),
+            Update::Ignored
+        );
     }
 
     #[test]

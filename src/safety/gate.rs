@@ -413,13 +413,7 @@ mod tests {
                 },
                 "roll_not_in_effect",
             ),
-            (
-                CommandPathStatus {
-                    fc: None,
-                    ..READY
-                },
-                "no_fc_status",
-            ),
+            (CommandPathStatus { fc: None, ..READY }, "no_fc_status"),
             (
                 CommandPathStatus {
                     fc: Some(FcStatus {

@@ -1,4 +1,5 @@
-//! The live camera: a DVS240/DAVIS240 through libcaer (feature `caer`).
+//! The live camera: a DVS240/DAVIS240 through libcaer, opened at run time
+//! ([`libcaer_sys::Libcaer`]).
 //!
 //! Opens the first DAVIS on USB, applies the configured (module, parameter, value)
 //! settings after libcaer's defaults, and hands polarity events to the pipeline on
@@ -11,7 +12,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::time::Duration;
 
-use libcaer_sys as caer;
+use libcaer_sys::{self as caer, Libcaer};
 
 use crate::daemon::clock::DaemonClock;
 use crate::event::{Event, Polarity};
@@ -37,6 +38,7 @@ pub enum Ended {
 
 /// Runs until the pipeline hangs up, reopening the device whenever it is lost.
 pub fn run(
+    lib: &Libcaer,
     settings: Vec<Setting>,
     clock: DaemonClock,
     batches: SyncSender<Vec<Event>>,
@@ -44,7 +46,7 @@ pub fn run(
 ) {
     let mut backoff = Duration::from_millis(50);
     loop {
-        match serve_device(&settings, clock, &batches) {
+        match serve_device(lib, &settings, clock, &batches) {
             Ok(Ended::Receiver) => return,
             Ok(Ended::DeviceLost) => {
                 tracing::error!("camera lost: no events until it is back; reopening");
@@ -59,28 +61,30 @@ pub fn run(
 
 /// Opens, configures and streams one device session.
 pub fn serve_device(
+    lib: &Libcaer,
     settings: &[Setting],
     clock: DaemonClock,
     batches: &SyncSender<Vec<Event>>,
 ) -> Result<Ended, String> {
     // SAFETY: plain FFI calls on a handle libcaer gave us, closed exactly once below.
     let mut handle =
-        unsafe { caer::caerDeviceOpen(1, caer::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null()) };
+        unsafe { (lib.caerDeviceOpen)(1, caer::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null()) };
     if handle.is_null() {
         return Err("no DAVIS camera could be opened".into());
     }
     let lost = Box::new(AtomicBool::new(false));
-    let result = stream(handle, settings, clock, batches, &lost);
+    let result = stream(lib, handle, settings, clock, batches, &lost);
     // SAFETY: stop before close; the callback flag outlives both.
     unsafe {
-        caer::caerDeviceDataStop(handle);
-        caer::caerDeviceClose(&mut handle);
+        (lib.caerDeviceDataStop)(handle);
+        (lib.caerDeviceClose)(&mut handle);
     }
     drop(lost);
     result
 }
 
 fn stream(
+    lib: &Libcaer,
     handle: caer::caerDeviceHandle,
     settings: &[Setting],
     clock: DaemonClock,
@@ -89,22 +93,22 @@ fn stream(
 ) -> Result<Ended, String> {
     // SAFETY: `handle` is open; settings are plain values.
     unsafe {
-        if !caer::caerDeviceSendDefaultConfig(handle) {
+        if !(lib.caerDeviceSendDefaultConfig)(handle) {
             return Err("default configuration refused".into());
         }
-        caer::caerDeviceConfigSet(
+        (lib.caerDeviceConfigSet)(
             handle,
             caer::CAER_HOST_CONFIG_DATAEXCHANGE,
             caer::CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING,
             1,
         );
         for &(module, param, value) in settings {
-            if !caer::caerDeviceConfigSet(handle, module, param, value) {
+            if !(lib.caerDeviceConfigSet)(handle, module, param, value) {
                 return Err(format!("setting ({module}, {param}) = {value} refused"));
             }
         }
         let flag = lost as *const AtomicBool as *mut std::ffi::c_void;
-        if !caer::caerDeviceDataStart(
+        if !(lib.caerDeviceDataStart)(
             handle,
             None,
             None,
@@ -120,7 +124,7 @@ fn stream(
     let mut polarity = Vec::new();
     loop {
         // SAFETY: `handle` is open and streaming; the container is freed below.
-        let container = unsafe { caer::caerDeviceDataGet(handle) };
+        let container = unsafe { (lib.caerDeviceDataGet)(handle) };
         if container.is_null() {
             if lost.load(Ordering::SeqCst) {
                 return Ok(Ended::DeviceLost);
@@ -131,12 +135,12 @@ fn stream(
         polarity.clear();
         // SAFETY: the container and its packets are live until freed.
         unsafe {
-            let n = caer::caerEventPacketContainerGetEventPacketsNumber(container);
+            let n = (lib.caerEventPacketContainerGetEventPacketsNumber)(container);
             for k in 0..n.max(0) {
-                let packet = caer::caerEventPacketContainerGetEventPacket(container, k);
+                let packet = (lib.caerEventPacketContainerGetEventPacket)(container, k);
                 caer::read_polarity_packet(packet, &mut polarity);
             }
-            caer::caerEventPacketContainerFree(container);
+            (lib.caerEventPacketContainerFree)(container);
         }
         let Some(first) = polarity.first() else {
             continue;

@@ -16,7 +16,6 @@
 pub mod aedat2;
 pub mod aedat3;
 pub mod aedat4;
-#[cfg(feature = "caer")]
 pub mod caer;
 mod counted;
 mod error;

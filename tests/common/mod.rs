@@ -562,11 +562,14 @@ pub struct MspMock {
     /// (time, roll value the model's iNav uses)
     pub roll_log: Arc<Mutex<Vec<(Instant, u16)>>>,
     /// Every MSP_SET_RAW_RC faithd wrote: (time, channels).
-    pub frames: Arc<Mutex<Vec<(Instant, Vec<u16>)>>>,
+    pub frames: Arc<Mutex<Vec<Written>>>,
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     _slave: OwnedFd,
 }
+
+/// One MSP_SET_RAW_RC faithd wrote: when, and its channels.
+pub type Written = (Instant, Vec<u16>);
 
 pub fn is_roll(v: u16) -> bool {
     v == 1200 || v == 1800
@@ -608,7 +611,10 @@ impl MspMock {
                         armed: controls.armed.load(Ordering::Relaxed),
                         failsafe: controls.system_status.load(Ordering::Relaxed) >= 5,
                     };
-                    if ready && let Ok(n) = nix::unistd::read(&master, &mut buf) && n > 0 {
+                    if ready
+                        && let Ok(n) = nix::unistd::read(&master, &mut buf)
+                        && n > 0
+                    {
                         let reply = fc.receive(&buf[..n], now_us, view);
                         let _ = nix::unistd::write(&master, &reply);
                         let mut f = frames.lock().unwrap();

@@ -96,6 +96,9 @@ pub struct Sitl {
     child: Child,
     pub base_port: u16,
     dir: TempDir,
+    /// UARTs (1-based) the saved set-up gives a function: each must listen again
+    /// after a save before the set-up is in effect.
+    uarts: Mutex<std::collections::BTreeSet<u16>>,
 }
 
 impl Sitl {
@@ -118,6 +121,7 @@ impl Sitl {
             child,
             base_port,
             dir,
+            uarts: Mutex::new([UART_CLI, UART_MONITOR].into()),
         };
         sitl.wait_for_msp(Duration::from_secs(10));
         sitl
@@ -160,35 +164,74 @@ impl Sitl {
         panic!("SITL's MSP port did not answer; SITL log:\n{}", self.log());
     }
 
-    /// Runs CLI lines on UART1 and returns what the CLI printed; leaves the CLI with
-    /// `exit` (which reboots only after a change, so use [`Sitl::cli_save`] for those).
+    /// Runs CLI lines on UART1 and returns what the CLI printed. A connection that
+    /// SITL resets (it rebinds its sockets while it settles after boot) is retried.
     pub fn cli(&self, lines: &[String]) -> String {
-        let mut s = TcpStream::connect(("127.0.0.1", self.port(UART_CLI))).expect("CLI port");
-        s.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+        let mut last = None;
+        for _ in 0..5 {
+            match self.try_cli(lines) {
+                Ok(out) => return out,
+                Err(e) => last = Some(e),
+            }
+            std::thread::sleep(Duration::from_millis(300));
+            self.wait_for_msp(Duration::from_secs(10));
+        }
+        panic!(
+            "SITL's CLI kept failing: {last:?}; SITL log:\n{}",
+            self.log()
+        );
+    }
+
+    fn try_cli(&self, lines: &[String]) -> std::io::Result<String> {
+        let mut s = TcpStream::connect(("127.0.0.1", self.port(UART_CLI)))?;
+        s.set_read_timeout(Some(Duration::from_millis(50)))?;
         let mut out = Vec::new();
-        let mut send = |s: &mut TcpStream, line: &str, settle: Duration| {
-            s.write_all(line.as_bytes()).unwrap();
-            s.write_all(b"\r\n").unwrap();
+        let mut send = |s: &mut TcpStream, line: &str, settle: Duration| -> std::io::Result<()> {
+            s.write_all(line.as_bytes())?;
+            s.write_all(b"\r\n")?;
             let until = Instant::now() + settle;
             let mut buf = [0u8; 4096];
             while Instant::now() < until {
                 match s.read(&mut buf) {
                     Ok(0) => break,
                     Ok(n) => out.extend_from_slice(&buf[..n]),
-                    Err(_) => {}
+                    Err(e)
+                        if matches!(
+                            e.kind(),
+                            std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                        ) => {}
+                    Err(e) => return Err(e),
                 }
             }
+            Ok(())
         };
-        send(&mut s, "#", Duration::from_millis(300));
+        send(&mut s, "#", Duration::from_millis(300))?;
         for line in lines {
-            send(&mut s, line, Duration::from_millis(60));
+            send(&mut s, line, Duration::from_millis(60))?;
         }
-        String::from_utf8_lossy(&out).into_owned()
+        Ok(String::from_utf8_lossy(&out).into_owned())
     }
 
-    /// Runs CLI lines, then `save`: iNav writes its EEPROM and restarts (same
-    /// process); returns once MSP answers again. Panics on a line iNav refused.
+    /// Runs CLI lines, then `save`: iNav writes its EEPROM and restarts (it waits
+    /// 1 s, then execs itself again); returns once the new process answers MSP and
+    /// listens on every UART the set-up uses (the telemetry and receiver UARTs come
+    /// up about 1.5 s after the others). Panics on a line iNav refused.
     pub fn cli_save(&self, lines: &[String]) {
+        for line in lines {
+            let words: Vec<&str> = line.split_whitespace().collect();
+            if let ["serial", index, function, ..] = words[..]
+                && let (Ok(i), Ok(f)) = (index.parse::<u16>(), function.parse::<u32>())
+            {
+                // Serial RX (64) listens only with receiver_type = SERIAL: the radio
+                // waits for it on its own.
+                let mut uarts = self.uarts.lock().unwrap();
+                if (f == 0 || f == 64) && i + 1 > UART_MONITOR {
+                    uarts.remove(&(i + 1));
+                } else if f != 0 {
+                    uarts.insert(i + 1);
+                }
+            }
+        }
         let mut all = lines.to_vec();
         all.push("save".into());
         let out = self.cli(&all);
@@ -199,8 +242,21 @@ impl Sitl {
             );
         }
         assert!(out.contains("Rebooting"), "no reboot after save:\n{out}");
-        std::thread::sleep(Duration::from_millis(500));
+        // The old process keeps its sockets through its 1 s reboot delay.
+        std::thread::sleep(Duration::from_millis(1300));
         self.wait_for_msp(Duration::from_secs(10));
+        let uarts = self.uarts.lock().unwrap().clone();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        for uart in uarts {
+            while TcpStream::connect(("127.0.0.1", self.port(uart))).is_err() {
+                assert!(
+                    Instant::now() < deadline,
+                    "UART{uart} never listened after the save; SITL log:\n{}",
+                    self.log()
+                );
+                std::thread::sleep(Duration::from_millis(50));
+            }
+        }
     }
 }
 
@@ -273,6 +329,9 @@ impl MspClient {
 /// Channel values of the pilot's radio, in radio order (1-based channel n at n-1).
 pub const PILOT_CHANNELS: usize = 14;
 
+/// What the radio sent: (unix us, channels).
+pub type RadioFrame = (i64, [u16; PILOT_CHANNELS]);
+
 /// The pilot's radio: IBUS frames (the FlySky protocol, 14 channels) into SITL's
 /// serial receiver every 7 ms, as an IBUS receiver sends them.
 pub struct Radio {
@@ -280,7 +339,7 @@ pub struct Radio {
     on: Arc<AtomicBool>,
     stop: Arc<AtomicBool>,
     /// When each change of the channels was first sent: (unix us, channels).
-    pub sent: Arc<Mutex<Vec<(i64, [u16; PILOT_CHANNELS])>>>,
+    pub sent: Arc<Mutex<Vec<RadioFrame>>>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -317,8 +376,14 @@ impl Radio {
         let on = Arc::new(AtomicBool::new(true));
         let stop = Arc::new(AtomicBool::new(false));
         let sent = Arc::new(Mutex::new(Vec::new()));
-        let mut stream =
-            TcpStream::connect(("127.0.0.1", sitl.port(UART_RADIO))).expect("radio port");
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut stream = loop {
+            match TcpStream::connect(("127.0.0.1", sitl.port(UART_RADIO))) {
+                Ok(s) => break s,
+                Err(e) if Instant::now() > deadline => panic!("radio port: {e}"),
+                Err(_) => std::thread::sleep(Duration::from_millis(50)),
+            }
+        };
         stream.set_nodelay(true).unwrap();
         let thread = {
             let (channels, on, stop, sent) =

@@ -1,9 +1,15 @@
-"""An independent MAVLink peer playing iNav for faithd's tests: pymavlink on UDP.
+"""An independent MAVLink peer playing iNav's telemetry for faithd's tests: pymavlink
+on UDP.
 
-Listens on 127.0.0.1:PORT, answers whoever talks to it (faithd) with HEARTBEAT
-(armed), ATTITUDE and RC_CHANNELS (switch in AUTO) at 50 Hz, records every
-RC_CHANNELS_OVERRIDE and HEARTBEAT it receives, and after SECONDS prints one JSON
-object with what it saw.
+Listens on 127.0.0.1:PORT and answers whoever talks to it (faithd) as iNav 9.1 does
+on its MAVLink port at the rates of the committed set-up (every 40 ms ATTITUDE and
+RC_CHANNELS with the pilot's switch at SWITCH_US; HEARTBEAT armed once a second;
+SYS_STATUS with the RC receiver healthy). With --impostor, a second component of
+the same system (154, a gimbal) also sends RC_CHANNELS with the switch in AUTO and
+an armed HEARTBEAT on the same link, as a misbehaving peripheral would. Records
+faithd's HEARTBEATs and any RC_CHANNELS_OVERRIDE, then prints one JSON object.
+
+    pymavlink_autopilot.py PORT SECONDS [SWITCH_US] [--impostor]
 """
 
 import json
@@ -14,19 +20,35 @@ import time
 os.environ["MAVLINK20"] = "1"
 from pymavlink import mavutil  # noqa: E402
 
+M = mavutil.mavlink
+
+
+def heartbeat(mav):
+    mav.heartbeat_send(
+        M.MAV_TYPE_QUADROTOR, M.MAV_AUTOPILOT_GENERIC,
+        M.MAV_MODE_FLAG_SAFETY_ARMED | M.MAV_MODE_FLAG_STABILIZE_ENABLED,
+        0, M.MAV_STATE_ACTIVE)
+
+
+def rc_channels(mav, boot_ms, switch_us):
+    mav.rc_channels_send(boot_ms, 14, 1440, 1500, 1000, 1500, 1900, switch_us,
+                         *([1500] * 8), *([65535] * 4), 200)
+
 
 def main():
-    port = int(sys.argv[1])
-    seconds = float(sys.argv[2])
-    switch_us = int(sys.argv[3]) if len(sys.argv) > 3 else 1900
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    impostor = "--impostor" in sys.argv
+    port, seconds = int(args[0]), float(args[1])
+    switch_us = int(args[2]) if len(args) > 2 else 1900
     conn = mavutil.mavlink_connection(
         f"udpin:127.0.0.1:{port}", source_system=1, source_component=1, dialect="common"
     )
     mav = conn.mav
+    rc = M.MAV_SYS_STATUS_SENSOR_RC_RECEIVER
     start = time.monotonic()
     next_send = start
     tick = 0
-    overrides = []
+    overrides = 0
     companion_heartbeats = 0
     while time.monotonic() - start < seconds:
         msg = conn.recv_match(blocking=True, timeout=0.005)
@@ -34,26 +56,25 @@ def main():
         if msg is not None:
             kind = msg.get_type()
             if kind == "RC_CHANNELS_OVERRIDE":
-                overrides.append({"t_s": now - start, "chan1_raw": msg.chan1_raw,
-                                  "chan2_raw": msg.chan2_raw,
-                                  "target_system": msg.target_system})
+                overrides += 1
             elif kind == "HEARTBEAT" and msg.get_srcComponent() == 191 \
-                    and msg.type == mavutil.mavlink.MAV_TYPE_ONBOARD_CONTROLLER:
+                    and msg.type == M.MAV_TYPE_ONBOARD_CONTROLLER:
                 companion_heartbeats += 1
         if now >= next_send:
             boot_ms = int((now - start) * 1000)
+            mav.srcComponent = 1
             mav.attitude_send(boot_ms, 0.0, 0.0, 0.3, 0.0, 0.0, 0.0)
-            mav.rc_channels_send(boot_ms, 8, 1500, 1500, 1400, 1500, 1900, switch_us,
-                                 1000, 1000, *([65535] * 10), 200)
-            if tick % 10 == 0:
-                mav.heartbeat_send(
-                    mavutil.mavlink.MAV_TYPE_QUADROTOR,
-                    mavutil.mavlink.MAV_AUTOPILOT_ARDUPILOTMEGA,
-                    mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED
-                    | mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                    0, mavutil.mavlink.MAV_STATE_ACTIVE)
+            rc_channels(mav, boot_ms, switch_us)
+            if tick % 25 == 0:
+                heartbeat(mav)
+                mav.sys_status_send(rc, rc, rc, 100, 11100, -1, -1, 0, 0, 0, 0, 0, 0)
+            if impostor:
+                mav.srcComponent = 154
+                rc_channels(mav, boot_ms, 1900)
+                heartbeat(mav)
+                mav.srcComponent = 1
             tick += 1
-            next_send += 0.02
+            next_send += 0.04
     print(json.dumps({"companion_heartbeats": companion_heartbeats,
                       "overrides": overrides}))
 
