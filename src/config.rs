@@ -358,6 +358,11 @@ fn validate_links(c: &FaithdConfig) -> Result<(), Invalid> {
         || "must be 1 to 255".into(),
     )?;
     check(
+        m.autopilot_component_id >= 1,
+        "mavlink.autopilot_component_id",
+        || "must be 1 to 255 (iNav's is 1, MAV_COMP_ID_AUTOPILOT1)".into(),
+    )?;
+    check(
         (10_000..=10_000_000).contains(&m.heartbeat_period_us),
         "mavlink.heartbeat_period_us",
         || format!("must be 10 ms to 10 s, got {}", m.heartbeat_period_us),
@@ -436,6 +441,7 @@ fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
         (g.attitude_stale_us, "gate.attitude_stale_us"),
         (g.heartbeat_stale_us, "gate.heartbeat_stale_us"),
         (g.pipeline_stale_us, "gate.pipeline_stale_us"),
+        (g.fc_status_stale_us, "gate.fc_status_stale_us"),
     ] {
         check((1000..=10_000_000).contains(&v), key, || {
             format!("must be 1 ms to 10 s, got {v}")
@@ -615,6 +621,14 @@ mod tests {
                 "gate.auto_min_us",
             ),
             ("[gate]\nattitude_stale_us = 0\n", "gate.attitude_stale_us"),
+            (
+                "[gate]\nfc_status_stale_us = 0\n",
+                "gate.fc_status_stale_us",
+            ),
+            (
+                "[mavlink]\nautopilot_component_id = 0\n",
+                "mavlink.autopilot_component_id",
+            ),
             ("[manoeuvre]\nroll_channel = 6\n", "manoeuvre.roll_channel"),
             ("[command]\nsink = \"mavlink\"\n", "command.sink"),
             (

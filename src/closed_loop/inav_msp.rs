@@ -96,6 +96,7 @@ impl Setup {
             b"mavlink_rc_chan_rate" => byte(self.mavlink_rc_chan_rate),
             b"mavlink_sysid" => byte(1),
             b"mavlink_version" => byte(2),
+            b"mavlink_ext_status_rate" => byte(10),
             _ => None,
         }
     }

@@ -87,6 +87,8 @@ pub struct FcSettings {
     pub failsafe_recovery_delay_ds: u8,
     pub mavlink_extra1_rate: u8,
     pub mavlink_rc_chan_rate: u8,
+    /// SYS_STATUS, whose RC receiver bit says the pilot's radio is lost.
+    pub mavlink_ext_status_rate: u8,
     pub mavlink_sysid: u8,
     /// Radio channel (0-based) feeding iNav's roll, pitch, yaw, throttle.
     pub rcmap: [u8; 4],
@@ -407,6 +409,26 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         "mavlink_rc_chan_rate",
     );
     item("RC_CHANNELS rate", found, problem, fix);
+    let status_period = mavlink_stream_period_us(s.mavlink_ext_status_rate);
+    let status_slow = status_period.is_none_or(|p| p + MAVLINK_TICK_US > want.rc_stale_us);
+    item(
+        "SYS_STATUS rate",
+        match status_period {
+            Some(p) => format!(
+                "mavlink_ext_status_rate = {}: one every {} ms",
+                s.mavlink_ext_status_rate,
+                p / 1000
+            ),
+            None => "mavlink_ext_status_rate = 0: not sent".into(),
+        },
+        status_slow.then(|| {
+            format!(
+                "SYS_STATUS tells faithd that the pilot's radio is lost (iNav's failsafe starts only failsafe_delay later); it must come at least as often as gate.rc_stale_us ({} ms)",
+                want.rc_stale_us / 1000
+            )
+        }),
+        status_slow.then(|| "set mavlink_ext_status_rate = 10".into()),
+    );
 
     let sysid_wrong = s.mavlink_sysid != want.autopilot_system_id;
     item(
@@ -511,6 +533,7 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
     let failsafe_recovery_delay_ds = setting("failsafe_recovery_delay").await? as u8;
     let mavlink_extra1_rate = setting("mavlink_extra1_rate").await? as u8;
     let mavlink_rc_chan_rate = setting("mavlink_rc_chan_rate").await? as u8;
+    let mavlink_ext_status_rate = setting("mavlink_ext_status_rate").await? as u8;
     let mavlink_sysid = setting("mavlink_sysid").await? as u8;
     let mavlink_version = setting("mavlink_version").await? as u8;
     let map = port.request(msp_port::MSP_RX_MAP, &[], timeout).await?;
@@ -528,6 +551,7 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
         failsafe_recovery_delay_ds,
         mavlink_extra1_rate,
         mavlink_rc_chan_rate,
+        mavlink_ext_status_rate,
         mavlink_sysid,
         rcmap: [byte(&map, 0), byte(&map, 1), byte(&map, 2), byte(&map, 3)],
         modes: ranges
@@ -608,6 +632,7 @@ mod tests {
             failsafe_recovery_delay_ds: 5,
             mavlink_extra1_rate: 50,
             mavlink_rc_chan_rate: 50,
+            mavlink_ext_status_rate: 10,
             mavlink_sysid: 1,
             rcmap: [0, 1, 3, 2],
             modes,
@@ -651,7 +676,8 @@ mod tests {
         // cycle time .. profile (9 bytes), arming flags, then the mode bits.
         let mut payload = vec![0u8; 9];
         payload.extend_from_slice(&(ARMING_FLAG_ARMED | 1 << 3).to_le_bytes());
-        payload.extend_from_slice(&[0b0000_0001, 0, 0b0000_0001, 0b1000_0000, 0, 0, 0, 0]);
+        // bit 16 (failsafe) and bit 23 (override) are both in the third byte.
+        payload.extend_from_slice(&[0b0000_0001, 0, 0b1000_0001, 0, 0, 0, 0, 0]);
         assert_eq!(bits.decode(&payload), Some((true, true, true)));
         payload[15] = 0;
         payload[16] = 0;
@@ -711,6 +737,9 @@ mod tests {
         let mut s = good();
         s.mavlink_rc_chan_rate = 0;
         refused(s, "RC_CHANNELS rate", "set mavlink_rc_chan_rate = 50");
+        let mut s = good();
+        s.mavlink_ext_status_rate = 2; // iNav's default
+        refused(s, "SYS_STATUS rate", "set mavlink_ext_status_rate = 10");
         let mut s = good();
         s.mavlink_sysid = 7;
         refused(s, "MAVLink system id", "set mavlink_sysid = 1");
