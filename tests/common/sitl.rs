@@ -108,7 +108,25 @@ impl Sitl {
         let dir = TempDir::new("sitl");
         let base_port = free_base_port();
         let log = std::fs::File::create(dir.0.join("sitl.log")).unwrap();
-        let child = Command::new(exe)
+        let mut command = Command::new(exe);
+        // SITL's TCP "UARTs" write with send() and no MSG_NOSIGNAL: a client that
+        // hangs up while iNav still answers it (the CLI after `save`, a monitor at the
+        // end of a test, faithd stopping) kills SITL with SIGPIPE, which a real UART
+        // never does. SIGPIPE ignored (inherited across exec, also by SITL's own
+        // restart after `save`) turns that into the EPIPE a UART's silence amounts to.
+        // SAFETY: signal() is async-signal-safe; nothing else runs between fork and exec.
+        unsafe {
+            use std::os::unix::process::CommandExt;
+            command.pre_exec(|| {
+                nix::sys::signal::signal(
+                    nix::sys::signal::Signal::SIGPIPE,
+                    nix::sys::signal::SigHandler::SigIgn,
+                )
+                .map(|_| ())
+                .map_err(std::io::Error::from)
+            });
+        }
+        let child = command
             .arg(format!("--tcpbaseport={base_port}"))
             .arg(format!("--path={}", dir.0.join("eeprom.bin").display()))
             .current_dir(&dir.0)
@@ -161,7 +179,29 @@ impl Sitl {
             }
             std::thread::sleep(Duration::from_millis(100));
         }
-        panic!("SITL's MSP port did not answer; SITL log:\n{}", self.log());
+        panic!(
+            "SITL's MSP port did not answer ({}); SITL log:\n{}",
+            self.process_state(),
+            self.log()
+        );
+    }
+
+    /// The SITL process's state and, where gdb is installed, its threads' stacks.
+    fn process_state(&self) -> String {
+        let pid = self.child.id();
+        let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+        let stacks = Command::new("gdb")
+            .args([
+                "-p",
+                &pid.to_string(),
+                "-batch",
+                "-ex",
+                "thread apply all bt",
+            ])
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+            .unwrap_or_default();
+        format!("process {pid}: {stat}\n{stacks}")
     }
 
     /// Runs CLI lines on UART1 and returns what the CLI printed. A connection that
@@ -186,28 +226,21 @@ impl Sitl {
         let mut s = TcpStream::connect(("127.0.0.1", self.port(UART_CLI)))?;
         s.set_read_timeout(Some(Duration::from_millis(50)))?;
         let mut out = Vec::new();
-        let mut send = |s: &mut TcpStream, line: &str, settle: Duration| -> std::io::Result<()> {
-            s.write_all(line.as_bytes())?;
-            s.write_all(b"\r\n")?;
-            let until = Instant::now() + settle;
-            let mut buf = [0u8; 4096];
-            while Instant::now() < until {
-                match s.read(&mut buf) {
-                    Ok(0) => break,
-                    Ok(n) => out.extend_from_slice(&buf[..n]),
-                    Err(e)
-                        if matches!(
-                            e.kind(),
-                            std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                        ) => {}
-                    Err(e) => return Err(e),
-                }
+        cli_line(&mut s, "#", Duration::from_millis(300), &mut out)?;
+        // A client SITL has not yet seen leave still holds the UART: this one then
+        // waits unanswered. Reconnect rather than type into the void.
+        let entered = Instant::now() + Duration::from_secs(2);
+        while !String::from_utf8_lossy(&out).contains("CLI") {
+            if Instant::now() > entered {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::TimedOut,
+                    "the CLI did not answer `#`",
+                ));
             }
-            Ok(())
-        };
-        send(&mut s, "#", Duration::from_millis(300))?;
+            cli_line(&mut s, "", Duration::from_millis(100), &mut out)?;
+        }
         for line in lines {
-            send(&mut s, line, Duration::from_millis(60))?;
+            cli_line(&mut s, line, Duration::from_millis(60), &mut out)?;
         }
         Ok(String::from_utf8_lossy(&out).into_owned())
     }
@@ -265,6 +298,32 @@ impl Drop for Sitl {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// Types one CLI line and collects what comes back for `settle`.
+fn cli_line(
+    s: &mut TcpStream,
+    line: &str,
+    settle: Duration,
+    out: &mut Vec<u8>,
+) -> std::io::Result<()> {
+    s.write_all(line.as_bytes())?;
+    s.write_all(b"\r\n")?;
+    let until = Instant::now() + settle;
+    let mut buf = [0u8; 4096];
+    while Instant::now() < until {
+        match s.read(&mut buf) {
+            Ok(0) => break,
+            Ok(n) => out.extend_from_slice(&buf[..n]),
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
 }
 
 /// The lines of a CLI script without comments and blank lines.
