@@ -436,6 +436,28 @@ fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
             )
         },
     )?;
+    // A switch has an end that means MANUAL: a range over both ends of the travel
+    // (1000 and 2000, give or take 100) would leave the pilot no way back.
+    check(
+        g.auto_min_us > 1100 || g.auto_max_us < 1900,
+        "gate.auto_max_us",
+        || {
+            format!(
+                "AUTO range {}..{} covers the whole stick travel: the pilot could never switch to MANUAL",
+                g.auto_min_us, g.auto_max_us
+            )
+        },
+    )?;
+    check(
+        g.pipeline_stale_us >= 2 * c.daemon.period_us,
+        "gate.pipeline_stale_us",
+        || {
+            format!(
+                "{} us is less than two pipeline periods (daemon.period_us = {}): the gate would never open",
+                g.pipeline_stale_us, c.daemon.period_us
+            )
+        },
+    )?;
     for (v, key) in [
         (g.rc_stale_us, "gate.rc_stale_us"),
         (g.attitude_stale_us, "gate.attitude_stale_us"),
@@ -493,7 +515,36 @@ fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
     )
 }
 
+fn validate_record(c: &FaithdConfig) -> Result<(), Invalid> {
+    const MIB: u64 = 1024 * 1024;
+    let r = &c.record;
+    if !r.enabled {
+        return Ok(());
+    }
+    check(!r.dir.as_os_str().is_empty(), "record.dir", || {
+        "must name a directory".into()
+    })?;
+    check(r.max_file_bytes >= MIB, "record.max_file_bytes", || {
+        format!(
+            "must be at least 1 MiB ({MIB}), got {}: smaller parts would open a file per batch",
+            r.max_file_bytes
+        )
+    })?;
+    check(
+        r.max_total_bytes >= 2 * r.max_file_bytes,
+        "record.max_total_bytes",
+        || {
+            format!(
+                "must be at least twice record.max_file_bytes ({}), got {}: the budget would delete the recording being written",
+                2 * r.max_file_bytes,
+                r.max_total_bytes
+            )
+        },
+    )
+}
+
 fn validate_daemon(c: &FaithdConfig) -> Result<(), Invalid> {
+    validate_record(c)?;
     let d = &c.daemon;
     check(
         (1000..=100_000).contains(&d.period_us),
@@ -621,6 +672,19 @@ mod tests {
                 "gate.auto_min_us",
             ),
             ("[gate]\nattitude_stale_us = 0\n", "gate.attitude_stale_us"),
+            (
+                "[gate]\nauto_min_us = 900\nauto_max_us = 2100\n",
+                "gate.auto_max_us",
+            ),
+            (
+                "[gate]\npipeline_stale_us = 15000\n",
+                "gate.pipeline_stale_us",
+            ),
+            ("[record]\nmax_file_bytes = 0\n", "record.max_file_bytes"),
+            (
+                "[record]\nmax_file_bytes = 268435456\nmax_total_bytes = 268435456\n",
+                "record.max_total_bytes",
+            ),
             (
                 "[gate]\nfc_status_stale_us = 0\n",
                 "gate.fc_status_stale_us",
