@@ -96,8 +96,8 @@ proptest! {
     }
 }
 
-/// A record whose first byte is `#` (0x23) is data, not another header line: AEDAT 2
-/// has no end-of-header marker, so the reader must tell text from records.
+/// A record whose first byte is `#` (0x23) is data, not another header line: faithd's
+/// files end their header with jAER's `#End Of ASCII Header`, and the reader stops there.
 #[test]
 fn aedat2_record_starting_with_a_hash_is_not_header() {
     // Row 36 from the top is raw row 143: address 0x23C0_0000.
@@ -106,6 +106,31 @@ fn aedat2_record_starting_with_a_hash_is_not_header() {
     let first_record = bytes.len() - 16;
     assert_eq!(bytes[first_record], b'#');
     assert_eq!(read_bytes(&bytes, Format::Aedat2).unwrap(), events);
+}
+
+/// The case the property test found: column 160, raw row 140 makes the address
+/// 0x230A_0000, whose first two bytes read as the text line "#\n".
+#[test]
+fn aedat2_record_that_reads_as_a_text_line_round_trips() {
+    let events = vec![ev(0, 160, 39, false)];
+    let bytes = aedat2_bytes(&events);
+    assert_eq!(&bytes[bytes.len() - 8..bytes.len() - 6], b"#\n");
+    assert_eq!(read_bytes(&bytes, Format::Aedat2).unwrap(), events);
+    // Every row and column whose address starts with '#' and a line end.
+    let tricky: Vec<Event> = (0..180u16)
+        .flat_map(|y| (0..240u16).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let address = (u32::from(179 - y) << 22) | (u32::from(x) << 12);
+            address >> 24 == 0x23 && matches!((address >> 16) & 0xFF, 0x0A | 0x0D)
+        })
+        .enumerate()
+        .map(|(i, (x, y))| ev(i as i64, x, y, false))
+        .collect();
+    assert!(!tricky.is_empty());
+    assert_eq!(
+        read_bytes(&aedat2_bytes(&tricky), Format::Aedat2).unwrap(),
+        tricky
+    );
 }
 
 #[test]

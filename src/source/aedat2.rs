@@ -33,6 +33,10 @@ const X_SHIFT: u32 = 12;
 const X_MASK: u32 = 0x3FF;
 const POLARITY_BIT: u32 = 1 << 11;
 const RECORD_BYTES: usize = 8;
+/// jAER's last header line. With it the header's end is known; without it (older or
+/// hand-made files) header lines are told from records by being text, which a record
+/// can mimic: a DVS address starting 0x23 0x0A reads as the line "#\n".
+const END_OF_HEADER: &[u8] = b"#End Of ASCII Header";
 /// Records read per batch.
 const BATCH_RECORDS: usize = 4096;
 
@@ -82,7 +86,7 @@ impl<R: Read> Aedat2Reader<R> {
         input.expect_magic(AEDAT2_MAGIC, "#!AER-DAT2.0")?;
         let mut rest_of_line = Vec::new();
         input.read_line(&mut rest_of_line, 4096, "header line")?;
-        read_hash_header(&mut input, None)?;
+        read_hash_header(&mut input, Some(END_OF_HEADER))?;
         Ok(Self {
             input,
             layout,
@@ -181,7 +185,8 @@ impl<W: Write> Aedat2Writer<W> {
         let header = b"#!AER-DAT2.0\r\n\
 # This is a raw AE data file created by faithd\r\n\
 # Data format is int32 address, int32 timestamp (8 bytes total), repeated for each event\r\n\
-# Timestamps tick is 1 us\r\n";
+# Timestamps tick is 1 us\r\n\
+#End Of ASCII Header\r\n";
         output
             .write_all(header)
             .map_err(|e| SourceError::write_io(e, 0))?;
