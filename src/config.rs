@@ -128,14 +128,16 @@ fn non_negative(v: f64, key: &'static str) -> Result<(), Invalid> {
     })
 }
 
-fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
+/// The daemon's checks of a pipeline configuration (also applied to the one a window
+/// log carries, before a replay allocates anything for it).
+pub fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
     let cam = &p.camera;
     check(
-        cam.width_px >= 8 && cam.height_px >= 8,
+        (8..=2048).contains(&cam.width_px) && (8..=2048).contains(&cam.height_px),
         "pipeline.camera.width_px",
         || {
             format!(
-                "sensor must be at least 8x8 px, got {}x{}",
+                "sensor must be 8x8 to 2048x2048 px (event surfaces are allocated per pixel), got {}x{}",
                 cam.width_px, cam.height_px
             )
         },
@@ -162,12 +164,21 @@ fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
             )
         },
     )?;
-    check(p.history_us > 0, "pipeline.history_us", || {
-        format!("must be positive, got {}", p.history_us)
-    })?;
-    check(p.max_vectors >= 1, "pipeline.max_vectors", || {
-        "must be at least 1".into()
-    })?;
+    check(
+        (1..=10_000_000).contains(&p.history_us),
+        "pipeline.history_us",
+        || format!("must be 1 us to 10 s, got {}", p.history_us),
+    )?;
+    check(
+        (1..=100_000).contains(&p.max_vectors),
+        "pipeline.max_vectors",
+        || {
+            format!(
+                "must be 1 to 100000 (buffers are sized from it), got {}",
+                p.max_vectors
+            )
+        },
+    )?;
     check(
         (1..=100).contains(&p.foe_smoothing_windows),
         "pipeline.foe_smoothing_windows",

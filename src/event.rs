@@ -27,6 +27,7 @@ impl Polarity {
 /// base so a recorded flight replays to the same decisions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Event {
+    /// Microseconds; a usable time lies within +-[`Event::MAX_ABS_T_US`].
     pub t_us: i64,
     pub x_px: u16,
     pub y_px: u16,
@@ -34,6 +35,10 @@ pub struct Event {
 }
 
 impl Event {
+    /// 2^53 us, about 285 years: any clock a recording can carry, with room to add
+    /// windows and histories without overflow. A time beyond it is damage.
+    pub const MAX_ABS_T_US: i64 = 1 << 53;
+
     pub fn new(t_us: i64, x_px: u16, y_px: u16, polarity: Polarity) -> Self {
         Self {
             t_us,

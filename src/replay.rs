@@ -51,6 +51,27 @@ pub enum ReplayError {
     },
     #[error("cannot write the output: {0}")]
     Output(std::io::Error),
+    #[error(
+        "{path}: event {index} has time {t_us} us, beyond +-2^53 us: not a clock faithd can window"
+    )]
+    EventTime { path: String, index: u64, t_us: i64 },
+}
+
+/// Refuses events whose times no recording can hold (they would overflow the window
+/// arithmetic); `seen` counts the events before this batch.
+fn check_times(path: &Path, batch: &[Event], seen: &mut u64) -> Result<(), ReplayError> {
+    if let Some(i) = batch
+        .iter()
+        .position(|e| e.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64)
+    {
+        return Err(ReplayError::EventTime {
+            path: path.display().to_string(),
+            index: *seen + i as u64,
+            t_us: batch[i].t_us,
+        });
+    }
+    *seen += batch.len() as u64;
+    Ok(())
 }
 
 pub enum AttitudeInput<'a> {
@@ -175,10 +196,12 @@ pub fn replay(
     let mut batch = Vec::new();
     let mut window_end_us: Option<i64> = None;
     let mut windows = 0;
+    let mut seen = 0;
     let mut more = true;
     while more || !pending.is_empty() {
         if more {
             more = reader.next_batch(&mut batch).map_err(events_err)?;
+            check_times(events_path, &batch, &mut seen)?;
             pending.extend_from_slice(&batch);
         }
         let Some(first) = pending.first() else {
@@ -263,6 +286,9 @@ pub fn replay_window_log(
     let header: WindowLogHeader =
         serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
     let as_run = header.pipeline_as_run().map_err(|e| log_err(1, e))?;
+    // The daemon's own checks, before anything is sized from it.
+    crate::config::validate_pipeline(&as_run)
+        .map_err(|inv| log_err(1, format!("header: `{}` {}", inv.key, inv.reason)))?;
     if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
         tracing::info!(
             version = header.faithd_window_log,
@@ -280,6 +306,7 @@ pub fn replay_window_log(
     let mut pending: Vec<Event> = Vec::new();
     let mut batch = Vec::new();
     let mut samples = Vec::new();
+    let mut seen = 0;
     let mut result = LogReplay::default();
     for (index, line) in lines {
         let line_no = index + 1;
@@ -291,6 +318,27 @@ pub fn replay_window_log(
             serde_json::from_str(&text).map_err(|e| log_err(line_no, e.to_string()))?;
         let window =
             RecordedWindow::deserialize(&recorded).map_err(|e| log_err(line_no, e.to_string()))?;
+        // Load shedding only ever lowers these from the configured values.
+        if window.max_vectors > config.max_vectors
+            || window.foe_iterations > config.faith.iterations
+        {
+            return Err(log_err(
+                line_no,
+                format!(
+                    "max_vectors {} / foe_iterations {} exceed the configuration's {} / {}",
+                    window.max_vectors,
+                    window.foe_iterations,
+                    config.max_vectors,
+                    config.faith.iterations
+                ),
+            ));
+        }
+        if window.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64 {
+            return Err(log_err(
+                line_no,
+                format!("window time {} us beyond +-2^53 us", window.t_us),
+            ));
+        }
         while pending.len() < window.events {
             if !reader.next_batch(&mut batch).map_err(events_err)? {
                 return Err(log_err(
@@ -304,6 +352,7 @@ pub fn replay_window_log(
                     ),
                 ));
             }
+            check_times(events_path, &batch, &mut seen)?;
             pending.extend_from_slice(&batch);
         }
         pipeline.set_max_vectors(window.max_vectors);

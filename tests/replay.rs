@@ -149,3 +149,58 @@ fn a_damaged_recording_is_refused_with_its_byte_offset() {
     assert!(err.contains("byte") || err.contains("offset"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// A timestamp no clock can hold used to overflow the window arithmetic: a panic in
+/// debug builds, an endless loop in release. Now it is refused, naming the event.
+#[test]
+fn a_time_beyond_any_clock_is_refused_not_looped_on() {
+    let dir = common::TempDir::new("replay-huge-time");
+    let path = dir.0.join("events.txt");
+    std::fs::write(&path, "0.000001 3 4 1\n9223372036854.775807 0 0 1\n").unwrap();
+    let started = std::time::Instant::now();
+    let (code, _, err) = replay(&["--events", path.to_str().unwrap(), "--json"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("event 1 has time 9223372036854775807 us"),
+        "{err}"
+    );
+    assert!(started.elapsed() < std::time::Duration::from_secs(10));
+}
+
+/// A window log's header is a configuration like any other: the daemon's checks apply
+/// before a replay sizes anything from it.
+#[test]
+fn a_crafted_window_log_header_is_refused_before_it_allocates() {
+    let dir = common::TempDir::new("replay-crafted-log");
+    write_inputs(&dir.0);
+    let header = faithd::window_log::WindowLogHeader {
+        faithd_window_log: faithd::window_log::WINDOW_LOG_VERSION,
+        faithd_version: "0.1.0".into(),
+        clock_start_unix_us: 0,
+        own_system_id: 1,
+        own_component_id: 191,
+        autopilot_system_id: 1,
+        autopilot_component_id: Some(1),
+        clock_sync_window: 50,
+        pipeline: faithd::pipeline::PipelineConfig {
+            max_vectors: 1_000_000_000_000,
+            ..Default::default()
+        },
+    };
+    let log = dir.0.join("flight.windows.jsonl");
+    std::fs::write(
+        &log,
+        format!("{}\n", serde_json::to_string(&header).unwrap()),
+    )
+    .unwrap();
+    let events = dir.0.join("flight.aedat4");
+    let (code, _, err) = replay(&[
+        "--events",
+        events.to_str().unwrap(),
+        "--windows",
+        log.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("pipeline.max_vectors"), "{err}");
+    assert!(err.contains("line 1"), "{err}");
+}
