@@ -131,10 +131,24 @@ pub fn attitude_from_imu_txt(path: &Path) -> Result<Vec<AttitudeSample>, ReplayE
         path: p.clone(),
         source,
     })?;
+    imu_samples(std::io::BufReader::new(file), &p)
+}
+
+/// Parses imu.txt lines (`t ax ay az gx gy gz`, seconds and rad/s) from `input`;
+/// errors name `label` and the line.
+pub fn imu_samples(
+    input: impl std::io::BufRead,
+    label: &str,
+) -> Result<Vec<AttitudeSample>, ReplayError> {
+    let imu_err = |line: usize, what: String| ReplayError::Imu {
+        path: label.to_string(),
+        line,
+        what,
+    };
     let mut out = Vec::new();
-    for (i, line) in std::io::BufReader::new(file).lines().enumerate() {
+    for (i, line) in input.lines().enumerate() {
         let line = line.map_err(|source| ReplayError::Io {
-            path: p.clone(),
+            path: label.to_string(),
             source,
         })?;
         let line = line.trim();
@@ -145,23 +159,22 @@ pub fn attitude_from_imu_txt(path: &Path) -> Result<Vec<AttitudeSample>, ReplayE
             .split_whitespace()
             .map(str::parse::<f64>)
             .collect::<Result<_, _>>()
-            .map_err(|e| ReplayError::Imu {
-                path: p.clone(),
-                line: i + 1,
-                what: format!("not a number: {e}"),
-            })?;
+            .map_err(|e| imu_err(i + 1, format!("not a number: {e}")))?;
         if v.len() != 7 || v.iter().any(|x| !x.is_finite()) {
-            return Err(ReplayError::Imu {
-                path: p.clone(),
-                line: i + 1,
-                what: format!(
+            return Err(imu_err(
+                i + 1,
+                format!(
                     "expected 7 finite numbers (t ax ay az gx gy gz), got {}",
                     v.len()
                 ),
-            });
+            ));
+        }
+        let t_us = (v[0] * 1e6).round();
+        if t_us.abs() > Event::MAX_ABS_T_US as f64 {
+            return Err(imu_err(i + 1, format!("time {} s beyond +-2^53 us", v[0])));
         }
         out.push(AttitudeSample {
-            t_us: (v[0] * 1e6).round() as i64,
+            t_us: t_us as i64,
             roll_rate_rad_s: v[6],
             pitch_rate_rad_s: v[4],
             yaw_rate_rad_s: v[5],

@@ -1,0 +1,22 @@
+//! Any text as a window log's lines: the header and the windows parse or are refused,
+//! and a header that parses goes through the daemon's own configuration checks, never
+//! a panic.
+#![no_main]
+
+use faithd::window_log::{RecordedWindow, WindowLogHeader};
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let mut lines = text.lines();
+    if let Some(Ok(header)) = lines.next().map(serde_json::from_str::<WindowLogHeader>) {
+        if let Ok(pipeline) = header.pipeline_as_run() {
+            let _ = faithd::config::validate_pipeline(&pipeline);
+        }
+    }
+    for line in lines.take(1000) {
+        let _ = serde_json::from_str::<RecordedWindow>(line);
+    }
+});
