@@ -551,15 +551,7 @@ fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
     let dir = TempDir::new("caer-run");
     let run = |libcaer_path: &str| {
         let config = dir.0.join("faithd.toml");
-        std::fs::write(
-            &config,
-            format!(
-                "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"caer\"\nlibcaer_path = \"{libcaer_path}\"\n[record]\nenabled = false\n",
-                mock.slave_path.display(),
-                mock.command_toml()
-            ),
-        )
-        .unwrap();
+        std::fs::write(&config, mock.service_toml(libcaer_path, "enabled = false")).unwrap();
         let log = std::fs::File::create(dir.0.join("faithd.log")).unwrap();
         let child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
             .args(["run", "--config"])

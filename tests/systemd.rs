@@ -129,12 +129,9 @@ fn the_daemon_makes_only_system_service_syscalls() {
     let config = dir.0.join("faithd.toml");
     std::fs::write(
         &config,
-        format!(
-            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"caer\"\nlibcaer_path = \"{}\"\n[record]\ndir = \"{}\"\n",
-            mock.slave_path.display(),
-            mock.command_toml(),
+        mock.service_toml(
             libcaer_sys::mock::LIBRARY,
-            dir.0.join("flights").display()
+            &format!("dir = \"{}\"", dir.0.join("flights").display()),
         ),
     )
     .unwrap();

@@ -262,23 +262,15 @@ async fn serve(
                         }
                     } else if f.command == msp_port::MSP2_INAV_STATUS {
                         match facts.status_bits.decode(&f.payload) {
-                            Some((armed, failsafe, override_on)) => {
-                                let fc = crate::safety::gate::FcStatus {
+                            Some((armed, failsafe, override_on)) => publish_fc_status(
+                                status,
+                                crate::safety::gate::FcStatus {
                                     t_us: clock.now_us(),
                                     armed,
                                     failsafe,
                                     override_on,
-                                };
-                                status.send_if_modified(|s| {
-                                    let changed = s.fc.map(|o| (o.armed, o.failsafe, o.override_on))
-                                        != Some((armed, failsafe, override_on));
-                                    if changed {
-                                        tracing::info!(armed, failsafe, override_on, "flight controller status");
-                                    }
-                                    s.fc = Some(fc);
-                                    true
-                                });
-                            }
+                                },
+                            ),
                             None => tracing::warn!(bytes = f.payload.len(), "MSP2_INAV_STATUS reply too short; ignored"),
                         }
                     }
@@ -291,6 +283,22 @@ async fn serve(
             }
         }
     }
+}
+
+/// Hands iNav's latest status to the gate, saying in the journal when it changed.
+fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: crate::safety::gate::FcStatus) {
+    let flags = |f: &crate::safety::gate::FcStatus| (f.armed, f.failsafe, f.override_on);
+    status.send_modify(|s| {
+        if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
+            tracing::info!(
+                armed = fc.armed,
+                failsafe = fc.failsafe,
+                override_on = fc.override_on,
+                "flight controller status"
+            );
+        }
+        s.fc = Some(fc);
+    });
 }
 
 /// Writes the centre `repeats` times, one period apart, each flushed.

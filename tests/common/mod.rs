@@ -19,6 +19,18 @@ use std::time::{Duration, Instant};
 use mavlink::dialects::common::*;
 use mavlink::{MavHeader, MavlinkVersion};
 
+/// Polls `pred` every 5 ms until it holds or `timeout` passes; its last answer.
+pub fn poll_until(timeout: Duration, mut pred: impl FnMut() -> bool) -> bool {
+    let deadline = Instant::now() + timeout;
+    while Instant::now() < deadline {
+        if pred() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    pred()
+}
+
 /// Values the test flips while the mock runs.
 pub struct Controls {
     pub switch_us: AtomicU16,
@@ -271,6 +283,17 @@ impl MockAutopilot {
         self.msp.command_toml()
     }
 
+    /// A config as the service runs it (the camera through libcaer, no simulated
+    /// source) against this mock: libcaer from `libcaer_path`, `record` as the
+    /// `[record]` section's body.
+    pub fn service_toml(&self, libcaer_path: &str, record: &str) -> String {
+        format!(
+            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"caer\"\nlibcaer_path = \"{libcaer_path}\"\n[record]\n{record}\n",
+            self.slave_path.display(),
+            self.command_toml()
+        )
+    }
+
     /// The roll iNav used, by time: see [`MspMock::first_roll`].
     pub fn first_roll(&self) -> Option<Instant> {
         self.msp.first_roll()
@@ -310,14 +333,7 @@ impl MockAutopilot {
 
     /// Waits until `pred` holds for the received messages, or `timeout` passes.
     pub fn wait_for(&self, timeout: Duration, pred: impl Fn(&MockAutopilot) -> bool) -> bool {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if pred(self) {
-                return true;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        pred(self)
+        poll_until(timeout, || pred(self))
     }
 }
 
@@ -523,14 +539,7 @@ impl Daemon {
 
     /// Waits until the journal holds `needle` (or `timeout` passes).
     pub fn wait_for_log(&self, needle: &str, timeout: Duration) -> bool {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if self.log().contains(needle) {
-                return true;
-            }
-            std::thread::sleep(Duration::from_millis(10));
-        }
-        self.log().contains(needle)
+        poll_until(timeout, || self.log().contains(needle))
     }
 }
 
@@ -674,14 +683,7 @@ impl MspMock {
 
     /// Waits until `pred` holds (or `timeout` passes).
     pub fn wait_for(&self, timeout: Duration, pred: impl Fn(&MspMock) -> bool) -> bool {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if pred(self) {
-                return true;
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        pred(self)
+        poll_until(timeout, || pred(self))
     }
 }
 

@@ -300,6 +300,14 @@ impl Drop for Sitl {
     }
 }
 
+/// A read that ran into the socket's read timeout (nothing came): not an error here.
+fn read_timed_out(e: &std::io::Error) -> bool {
+    matches!(
+        e.kind(),
+        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+    )
+}
+
 /// Types one CLI line and collects what comes back for `settle`.
 fn cli_line(
     s: &mut TcpStream,
@@ -315,11 +323,7 @@ fn cli_line(
         match s.read(&mut buf) {
             Ok(0) => break,
             Ok(n) => out.extend_from_slice(&buf[..n]),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                ) => {}
+            Err(e) if read_timed_out(&e) => {}
             Err(e) => return Err(e),
         }
     }
@@ -373,11 +377,7 @@ impl MspClient {
             match self.stream.read(&mut buf) {
                 Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
                 Ok(n) => self.decoder.push(&buf[..n], &mut self.frames),
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-                    ) => {}
+                Err(e) if read_timed_out(&e) => {}
                 Err(e) => return Err(e),
             }
         }
@@ -597,14 +597,12 @@ impl Monitor {
 
     /// Waits until the latest sample satisfies `pred`.
     pub fn wait_until(&self, timeout: Duration, pred: impl Fn(&Sample) -> bool) -> Option<Sample> {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if let Some(s) = self.latest().filter(|s| pred(s)) {
-                return Some(s);
-            }
-            std::thread::sleep(Duration::from_millis(5));
-        }
-        None
+        let mut found = None;
+        super::poll_until(timeout, || {
+            found = self.latest().filter(|s| pred(s));
+            found.is_some()
+        });
+        found
     }
 }
 
