@@ -541,16 +541,33 @@ fn validate_record(c: &FaithdConfig) -> Result<(), Invalid> {
             r.max_file_bytes
         )
     })?;
+    // Three files are open at a time (events, MAVLink, windows), each up to a part:
+    // one more part of room keeps the budget from deleting what is being written.
     check(
-        r.max_total_bytes >= 2 * r.max_file_bytes,
+        r.max_total_bytes >= 4 * r.max_file_bytes,
         "record.max_total_bytes",
         || {
             format!(
-                "must be at least twice record.max_file_bytes ({}), got {}: the budget would delete the recording being written",
-                2 * r.max_file_bytes,
+                "must be at least four times record.max_file_bytes ({}), got {}: three files are written at once and the budget needs a part to spare",
+                4 * r.max_file_bytes,
                 r.max_total_bytes
             )
         },
+    )?;
+    check(
+        (MIB..=1024 * MIB).contains(&r.max_queue_bytes),
+        "record.max_queue_bytes",
+        || {
+            format!(
+                "must be 1 MiB to 1 GiB, got {}: the queue is memory the daemon holds while the card is slow",
+                r.max_queue_bytes
+            )
+        },
+    )?;
+    check(
+        (10..=60_000).contains(&r.sync_interval_ms),
+        "record.sync_interval_ms",
+        || format!("must be 10 to 60000 ms, got {}", r.sync_interval_ms),
     )
 }
 
@@ -693,9 +710,11 @@ mod tests {
             ),
             ("[record]\nmax_file_bytes = 0\n", "record.max_file_bytes"),
             (
-                "[record]\nmax_file_bytes = 268435456\nmax_total_bytes = 268435456\n",
+                "[record]\nmax_file_bytes = 268435456\nmax_total_bytes = 805306368\n",
                 "record.max_total_bytes",
             ),
+            ("[record]\nmax_queue_bytes = 0\n", "record.max_queue_bytes"),
+            ("[record]\nsync_interval_ms = 0\n", "record.sync_interval_ms"),
             (
                 "[gate]\nfc_status_stale_us = 0\n",
                 "gate.fc_status_stale_us",

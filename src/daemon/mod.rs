@@ -281,7 +281,7 @@ pub async fn serve(
     // centre, `release_repeats` times, each frame flushed, before faithd exits.
     release_on_exit(&stream, config.manoeuvre.release_repeats).await;
     if let Some(r) = &recorder {
-        r.finish();
+        r.finish().await;
     }
     tracing::info!("faithd stopped");
 }

@@ -28,6 +28,21 @@ pub struct TlogRecord {
     pub message: Option<MavMessage>,
 }
 
+/// Appends one .tlog record to `out`: the big-endian Unix time in microseconds, then
+/// the message as a MAVLink 2 frame. One buffer per record lets a writer put it on
+/// disk in one piece, or not at all.
+pub fn encode_record(
+    out: &mut Vec<u8>,
+    t_unix_us: u64,
+    header: MavHeader,
+    msg: &MavMessage,
+) -> std::io::Result<()> {
+    out.extend_from_slice(&t_unix_us.to_be_bytes());
+    mavlink::write_versioned_msg(out, MavlinkVersion::V2, header, msg)
+        .map(|_| ())
+        .map_err(|e| std::io::Error::other(e.to_string()))
+}
+
 pub struct TlogWriter<W: Write> {
     out: W,
     frame: Vec<u8>,
@@ -49,9 +64,7 @@ impl<W: Write> TlogWriter<W> {
         msg: &MavMessage,
     ) -> std::io::Result<()> {
         self.frame.clear();
-        mavlink::write_versioned_msg(&mut self.frame, MavlinkVersion::V2, header, msg)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
-        self.out.write_all(&t_unix_us.to_be_bytes())?;
+        encode_record(&mut self.frame, t_unix_us, header, msg)?;
         self.out.write_all(&self.frame)
     }
 

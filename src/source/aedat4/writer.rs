@@ -155,6 +155,17 @@ impl<W: Write + Seek> Aedat4Writer<W> {
         Ok(())
     }
 
+    /// Bytes of whole packets (and the header) written so far: where the output
+    /// should be cut back to when a write fails halfway through a packet.
+    pub fn written_bytes(&self) -> u64 {
+        self.written_bytes
+    }
+
+    /// The output, for a caller that has to repair it after a failed write.
+    pub fn get_mut(&mut self) -> &mut W {
+        &mut self.output
+    }
+
     /// Flushes and hands back the output positioned at its end.
     ///
     /// The packet index (data table) is not written: dv-processing 2.0.4 spun forever
