@@ -714,7 +714,10 @@ mod tests {
                 "record.max_total_bytes",
             ),
             ("[record]\nmax_queue_bytes = 0\n", "record.max_queue_bytes"),
-            ("[record]\nsync_interval_ms = 0\n", "record.sync_interval_ms"),
+            (
+                "[record]\nsync_interval_ms = 0\n",
+                "record.sync_interval_ms",
+            ),
             (
                 "[gate]\nfc_status_stale_us = 0\n",
                 "gate.fc_status_stale_us",

@@ -13,7 +13,9 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use common::{Controls, Daemon, MockAutopilot, MspMock, TempDir, is_roll, point_symlink};
+use common::{
+    Controls, Daemon, MockAutopilot, MspMock, TempDir, is_roll, point_symlink, poll_until,
+};
 
 /// The defaults the daemon runs with (config/faithd.toml).
 const SEND_PERIOD: Duration = Duration::from_millis(20);
@@ -587,4 +589,84 @@ fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
     assert!(streaming.contains("libcaer loaded"), "{streaming}");
     assert!(streaming.contains("camera open: streaming"), "{streaming}");
     assert!(!streaming.contains("SIMULATED CAMERA"), "{streaming}");
+}
+
+#[test]
+fn writes_held_off_by_flow_control_time_out_close_the_gate_and_recover() {
+    let (mock, mut daemon) = start(Controls::default());
+    wait_for_roll(&mock, &daemon, "before the ports were held");
+    // Both UARTs held off: faithd's writes stop completing. Each times out, the
+    // session is reopened, and the gate stays closed while the roll cannot be sent.
+    mock.msp.hold_faithds_writes(true);
+    mock.hold_faithds_writes(true);
+    let held_at = Instant::now();
+    assert!(
+        daemon.wait_for_log(
+            "MSP command port lost: write failed: write not completed within 250 ms",
+            Duration::from_secs(2)
+        ),
+        "{}",
+        daemon.log()
+    );
+    assert!(
+        daemon.wait_for_log(
+            "autopilot link lost: write failed: write not completed within 250 ms",
+            Duration::from_secs(3)
+        ),
+        "{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(daemon.is_running(), "{}", daemon.log());
+    let log = daemon.log();
+    let after_hold = &log[log.find("MSP command port lost").unwrap()..];
+    assert!(after_hold.contains("safety gate closed"), "{after_hold}");
+    // Let go: the stream starts again at the centre, and the next approach rolls.
+    mock.msp.hold_faithds_writes(false);
+    mock.hold_faithds_writes(false);
+    let released_at = Instant::now();
+    assert!(
+        mock.msp.wait_for(Duration::from_secs(12), |m| m
+            .roll_after(released_at)
+            .is_some()),
+        "no roll after the ports were let go (held {:?}); journal:\n{}",
+        released_at - held_at,
+        daemon.log()
+    );
+    assert!(daemon.stop().success());
+}
+
+#[test]
+fn telemetry_queued_before_a_reconnect_is_not_taken_as_fresh() {
+    let dir = TempDir::new("backlog");
+    let link = dir.0.join("ttyFC");
+    let mut first = MockAutopilot::start(Arc::new(Controls::default()));
+    point_symlink(&link, &first.slave_path);
+    let daemon = Daemon::start(&format!("serial:{}", link.display()), &first.command_toml());
+    wait_for_roll(&first, &daemon, "before the reconnect");
+    // Another port fills with half a second of AUTO, armed telemetry nobody reads,
+    // then goes quiet: what a reopened port holds after a glitch.
+    let mut second = MockAutopilot::start(Arc::new(Controls::default()));
+    std::thread::sleep(Duration::from_millis(500));
+    second.go_quiet();
+    point_symlink(&link, &second.slave_path);
+    first.unplug_mavlink();
+    assert!(
+        poll_until(Duration::from_secs(5), || daemon
+            .log()
+            .matches("autopilot link up endpoint")
+            .count()
+            >= 2),
+        "{}",
+        daemon.log()
+    );
+    // The backlog is discarded: nothing arrives, and the gate never opens on it.
+    std::thread::sleep(Duration::from_millis(800));
+    let log = daemon.log();
+    let lost_at = log
+        .find("autopilot link lost")
+        .unwrap_or_else(|| panic!("{log}"));
+    let after = &log[lost_at..];
+    assert!(!after.contains("safety gate open"), "{after}");
+    assert!(!after.contains("autopilot state"), "{after}");
 }

@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use tokio::io::{AsyncReadExt, AsyncWriteExt, ReadHalf, WriteHalf};
+use tokio::io::{AsyncReadExt, ReadHalf, WriteHalf};
 
 use super::msp::{self, Decoder, Frame};
 use crate::link::endpoint::BoxedTransport;
@@ -58,10 +58,10 @@ impl MspPort {
         }
     }
 
-    /// Writes one frame and flushes it: a write that returns has left faithd.
+    /// Writes one frame and flushes it: a write that returns has left faithd. A
+    /// write stuck for [`crate::link::endpoint::WRITE_TIMEOUT`] fails.
     pub async fn write(&mut self, frame: &[u8]) -> std::io::Result<()> {
-        self.tx.write_all(frame).await?;
-        self.tx.flush().await
+        crate::link::endpoint::write_bounded(&mut self.tx, frame).await
     }
 
     /// Sends `command` and waits for its reply, skipping replies to other commands

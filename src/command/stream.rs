@@ -21,6 +21,7 @@ use super::fc_check::{self, Expectations, RouteFacts};
 use super::msp;
 use super::msp_port::{self, MspPort};
 use crate::daemon::clock::DaemonClock;
+use crate::daemon::supervise::Heartbeat;
 use crate::link::endpoint::Endpoint;
 
 /// The stream's knobs, from the config.
@@ -74,12 +75,48 @@ pub struct StreamHandle {
 }
 
 /// Starts the stream task.
-pub fn spawn(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock) -> StreamHandle {
+pub fn spawn(
+    endpoint: Endpoint,
+    settings: StreamSettings,
+    clock: DaemonClock,
+    heartbeat: Heartbeat,
+) -> StreamHandle {
     let (held, held_rx) = watch::channel(settings.neutral_us);
     let (status_tx, status) = watch::channel(StreamStatus::default());
     let (stop, stop_rx) = mpsc::channel(1);
-    tokio::spawn(run(endpoint, settings, clock, held_rx, status_tx, stop_rx));
+    let channels = Channels {
+        held: held_rx,
+        status: status_tx,
+        stop: stop_rx,
+        heartbeat,
+    };
+    tokio::spawn(run(endpoint, settings, clock, channels));
     StreamHandle { held, status, stop }
+}
+
+/// The stream task's ends of its channels, and its heartbeat.
+struct Channels {
+    held: watch::Receiver<u16>,
+    status: watch::Sender<StreamStatus>,
+    stop: mpsc::Receiver<StopRequest>,
+    heartbeat: Heartbeat,
+}
+
+/// Writes the release from outside the stream, on a port opened afresh: for when the
+/// stream task is gone (it panicked) and the daemon is stopping.
+pub async fn release_directly(
+    endpoint: &Endpoint,
+    facts: RouteFacts,
+    neutral_us: u16,
+    repeats: u32,
+) -> Result<u32, String> {
+    let transport = endpoint
+        .open()
+        .await
+        .map_err(|e| format!("cannot open {endpoint}: {e}"))?;
+    let mut port = MspPort::new(transport);
+    let centre = raw_rc_frame(facts.roll_frame_index, neutral_us, neutral_us);
+    release(&mut port, &centre, repeats, Duration::from_millis(20)).await
 }
 
 /// MSP_SET_RAW_RC: the four flight channels at the centre, `roll_us` in the slot of
@@ -92,19 +129,14 @@ pub fn raw_rc_frame(roll_frame_index: usize, roll_us: u16, neutral_us: u16) -> V
     msp::set_raw_rc(&channels)
 }
 
-async fn run(
-    endpoint: Endpoint,
-    settings: StreamSettings,
-    clock: DaemonClock,
-    mut held: watch::Receiver<u16>,
-    status: watch::Sender<StreamStatus>,
-    mut stop: mpsc::Receiver<StopRequest>,
-) {
+async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, channels: Channels) {
+    let mut channels = channels;
     let mut backoff = settings.reconnect_min;
     loop {
+        channels.heartbeat.beat();
         let opened = tokio::select! {
             o = endpoint.open() => o,
-            Some(req) = stop.recv() => {
+            Some(req) = channels.stop.recv() => {
                 let _ = req.done.send(Err("the MSP port is not open".into()));
                 return;
             }
@@ -123,16 +155,13 @@ async fn run(
                         backoff
                     }
                     Ok(Err(summary)) => {
-                        status.send_modify(|s| s.setup_refused = true);
+                        channels.status.send_modify(|s| s.setup_refused = true);
                         tracing::error!(%endpoint, "flight controller set-up refused, faithd will not command: {summary}");
                         settings.recheck
                     }
                     Ok(Ok(facts)) => {
-                        let why = serve(
-                            &mut port, facts, &settings, &clock, &mut held, &status, &mut stop,
-                        )
-                        .await;
-                        status.send_modify(|s| {
+                        let why = serve(&mut port, facts, &settings, &clock, &mut channels).await;
+                        channels.status.send_modify(|s| {
                             s.ready_at_us = None;
                             s.last_report = None;
                             s.fc = None;
@@ -149,8 +178,8 @@ async fn run(
             }
         };
         tokio::select! {
-            _ = tokio::time::sleep(wait) => {}
-            Some(req) = stop.recv() => {
+            _ = channels.heartbeat.sleep(wait) => {}
+            Some(req) = channels.stop.recv() => {
                 let _ = req.done.send(Err("the MSP port is not open".into()));
                 return;
             }
@@ -189,10 +218,14 @@ async fn serve(
     facts: RouteFacts,
     settings: &StreamSettings,
     clock: &DaemonClock,
-    held: &mut watch::Receiver<u16>,
-    status: &watch::Sender<StreamStatus>,
-    stop: &mut mpsc::Receiver<StopRequest>,
+    channels: &mut Channels,
 ) -> Ended {
+    let Channels {
+        held,
+        status,
+        stop,
+        heartbeat,
+    } = channels;
     let neutral = settings.neutral_us;
     let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, neutral);
     let mut requests = msp::encode_request(msp_port::MSP_RC, &[]);
@@ -222,6 +255,7 @@ async fn serve(
     let mut buf = [0u8; 512];
     let mut refusals = 0u64;
     loop {
+        heartbeat.beat();
         tokio::select! {
             _ = tick.tick() => {
                 if last_reply.elapsed() > settings.reply_timeout {

@@ -21,6 +21,7 @@ pub mod cycle;
 pub mod record;
 pub mod shed;
 pub mod source;
+pub mod supervise;
 
 use std::sync::mpsc::SyncSender;
 use std::sync::{Arc, Mutex};
@@ -75,6 +76,19 @@ pub enum DaemonError {
     Config { key: &'static str, reason: String },
     #[error("cannot start the runtime: {0}")]
     Runtime(std::io::Error),
+    /// A task panicked or ended: faithd released the roll and stopped, for systemd
+    /// to restart it.
+    #[error("stopped on a fault: {0}")]
+    Fault(String),
+}
+
+/// How [`serve`] ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Ended {
+    /// Asked to stop (a signal, or the harness).
+    Requested(&'static str),
+    /// A task panicked, ended or could not go on.
+    Fault(String),
 }
 
 /// What a person asked for on the command line of `faithd run`.
@@ -108,6 +122,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
             key: "command.msp_endpoint",
             reason,
         })?;
+    supervise::install_panic_hook();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -148,14 +163,19 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
         source,
         observer: None,
     };
-    runtime.block_on(serve(
+    let ended = runtime.block_on(serve(
         config,
         endpoint,
         msp_endpoint,
         hooks,
         shutdown_signal(),
     ));
-    Ok(())
+    // Threads still blocked in a device or a disk are not waited for.
+    runtime.shutdown_timeout(Duration::from_millis(200));
+    match ended {
+        Ended::Requested(_) => Ok(()),
+        Ended::Fault(why) => Err(DaemonError::Fault(why)),
+    }
 }
 
 /// Runs an event source on its own thread until the pipeline hangs up.
@@ -180,14 +200,15 @@ pub enum Observation {
     },
 }
 
-/// The daemon proper; returns when `shutdown` completes, after releasing the roll.
+/// The daemon proper; returns when `shutdown` completes or a fault is reported
+/// ([`supervise`]), after releasing the roll either way.
 pub async fn serve(
     config: FaithdConfig,
     endpoint: Endpoint,
     msp_endpoint: Endpoint,
     hooks: Hooks,
     shutdown: impl std::future::Future<Output = &'static str>,
-) {
+) -> Ended {
     let Hooks {
         clock,
         source,
@@ -213,6 +234,7 @@ pub async fn serve(
         pipeline: config.pipeline,
     };
     let recorder = record::start(&config.record, &window_log_header);
+    let mut supervisor = supervise::Supervisor::new(clock);
     let (vehicle_tx, vehicle_rx) = watch::channel(VehicleState::default());
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
     // faithd sends only its own HEARTBEAT on the MAVLink link; nothing else queues.
@@ -227,6 +249,7 @@ pub async fn serve(
             recorder: recorder.clone(),
         },
         mav_out_rx,
+        supervisor.register("autopilot link"),
     ));
 
     let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
@@ -256,34 +279,52 @@ pub async fn serve(
         })
         .expect("spawn pipeline thread");
 
-    let stream = stream::spawn(msp_endpoint, stream_settings(&config), clock);
+    let stream = stream::spawn(
+        msp_endpoint.clone(),
+        stream_settings(&config),
+        clock,
+        supervisor.register("MSP roll stream"),
+    );
+    let commander_beat = supervisor.register("commander");
 
     tokio::spawn(systemd_notifier(
         clock,
         vehicle_rx.clone(),
         status_rx.clone(),
         config.gate.pipeline_stale_us,
+        supervisor,
     ));
     let commander = commander_task(
         &config,
         clock,
-        vehicle_rx,
-        status_rx,
-        decision_rx,
+        CommanderInputs {
+            vehicle_rx,
+            status_rx,
+            decision_rx,
+            observer,
+            heartbeat: commander_beat,
+        },
         &stream,
-        observer,
     );
-    tokio::select! {
-        _ = commander => {}
-        why = shutdown => tracing::info!("shutdown requested ({why})"),
-    }
+    let ended = tokio::select! {
+        _ = commander => Ended::Fault("the commander ended".into()),
+        why = shutdown => {
+            tracing::info!("shutdown requested ({why})");
+            Ended::Requested(why)
+        }
+        why = supervise::fault() => {
+            tracing::error!("{why}: releasing the roll and stopping (systemd restarts faithd)");
+            Ended::Fault(why)
+        }
+    };
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
     // centre, `release_repeats` times, each frame flushed, before faithd exits.
-    release_on_exit(&stream, config.manoeuvre.release_repeats).await;
+    release_on_exit(&stream, &msp_endpoint, &config.manoeuvre).await;
     if let Some(r) = &recorder {
         r.finish().await;
     }
     tracing::info!("faithd stopped");
+    ended
 }
 
 fn stream_settings(config: &FaithdConfig) -> StreamSettings {
@@ -301,25 +342,40 @@ fn stream_settings(config: &FaithdConfig) -> StreamSettings {
 }
 
 /// Ends the stream with the centre and says in the journal what reached the wire.
-async fn release_on_exit(stream: &StreamHandle, repeats: u32) {
+/// When the stream task is gone (it panicked) or does not answer, the port is opened
+/// afresh and the centre written from here.
+async fn release_on_exit(
+    stream: &StreamHandle,
+    endpoint: &Endpoint,
+    manoeuvre: &crate::safety::manoeuvre::ManoeuvreConfig,
+) {
+    let repeats = manoeuvre.release_repeats;
+    let facts = stream.status.borrow().facts;
     let (done, answer) = tokio::sync::oneshot::channel();
-    if stream
-        .stop
-        .send(StopRequest { repeats, done })
-        .await
-        .is_err()
-    {
-        tracing::error!("roll channel release not written: the MSP stream task has ended");
-        return;
-    }
-    match tokio::time::timeout(Duration::from_secs(2), answer).await {
-        Ok(Ok(Ok(n))) => {
-            tracing::info!("roll channel released: {n} centre frames written to iNav")
+    let asked = stream.stop.try_send(StopRequest { repeats, done }).is_ok();
+    let why = if asked {
+        match tokio::time::timeout(Duration::from_secs(1), answer).await {
+            Ok(Ok(Ok(n))) => {
+                tracing::info!("roll channel released: {n} centre frames written to iNav");
+                return;
+            }
+            Ok(Ok(Err(why))) => why,
+            Ok(Err(_)) => "the MSP stream task has ended".into(),
+            Err(_) => "the MSP stream did not answer within 1 s".into(),
         }
-        Ok(Ok(Err(why))) => tracing::error!(
-            "roll channel release not written ({why}): iNav keeps faithd's last value until its MSP override times out"
+    } else {
+        "the MSP stream task has ended".into()
+    };
+    let Some(facts) = facts else {
+        tracing::info!("roll channel: nothing to release ({why}; no frame was ever sent)");
+        return;
+    };
+    tracing::error!("roll channel release through the stream failed ({why}): writing it directly");
+    match stream::release_directly(endpoint, facts, manoeuvre.neutral_us, repeats).await {
+        Ok(n) => tracing::info!("roll channel released: {n} centre frames written to iNav"),
+        Err(e) => tracing::error!(
+            "roll channel release not written ({e}): iNav keeps faithd's last value until its MSP override times out"
         ),
-        _ => tracing::error!("roll channel release not confirmed: the MSP stream did not answer"),
     }
 }
 
@@ -330,15 +386,28 @@ struct RollCheck {
     fault: bool,
 }
 
+/// What the commander listens to, and its heartbeat.
+struct CommanderInputs {
+    vehicle_rx: watch::Receiver<VehicleState>,
+    status_rx: watch::Receiver<PipelineStatus>,
+    decision_rx: mpsc::Receiver<cycle::RollDecision>,
+    observer: Option<mpsc::UnboundedSender<Observation>>,
+    heartbeat: supervise::Heartbeat,
+}
+
 async fn commander_task(
     config: &FaithdConfig,
     clock: DaemonClock,
-    mut vehicle_rx: watch::Receiver<VehicleState>,
-    mut status_rx: watch::Receiver<PipelineStatus>,
-    mut decision_rx: mpsc::Receiver<cycle::RollDecision>,
+    inputs: CommanderInputs,
     stream: &StreamHandle,
-    observer: Option<mpsc::UnboundedSender<Observation>>,
 ) {
+    let CommanderInputs {
+        mut vehicle_rx,
+        mut status_rx,
+        mut decision_rx,
+        observer,
+        heartbeat,
+    } = inputs;
     let mut commander = Commander::new(config.manoeuvre);
     let mut stream_rx = stream.status.clone();
     let mut check = RollCheck {
@@ -366,6 +435,7 @@ async fn commander_task(
                 }
             }
         }
+        heartbeat.beat();
         let now_us = clock.now_us();
         let vehicle = *vehicle_rx.borrow_and_update();
         let status = *status_rx.borrow_and_update();
@@ -481,12 +551,14 @@ async fn commander_task(
     }
 }
 
-/// READY once the link is up and the pipeline has run; WATCHDOG while it keeps running.
+/// READY once the link is up and the pipeline has run; WATCHDOG while the pipeline
+/// keeps finishing cycles and every supervised task keeps beating.
 async fn systemd_notifier(
     clock: DaemonClock,
     mut vehicle_rx: watch::Receiver<VehicleState>,
     status_rx: watch::Receiver<PipelineStatus>,
     pipeline_stale_us: i64,
+    supervisor: supervise::Supervisor,
 ) {
     loop {
         let up = vehicle_rx.borrow().link_up && status_rx.borrow().last_cycle_us.is_some();
@@ -494,7 +566,10 @@ async fn systemd_notifier(
             break;
         }
         tokio::select! {
-            _ = vehicle_rx.changed() => {}
+            changed = vehicle_rx.changed() => if changed.is_err() {
+                supervise::report_fault("the autopilot link task ended before READY".into());
+                return;
+            },
             _ = tokio::time::sleep(Duration::from_millis(20)) => {}
         }
     }
@@ -504,14 +579,31 @@ async fn systemd_notifier(
         return;
     };
     let mut tick = tokio::time::interval(watchdog / 2);
+    let mut withheld_for: Option<String> = None;
     loop {
         tick.tick().await;
-        let last = status_rx.borrow().last_cycle_us;
-        match last {
-            Some(t) if clock.now_us() - t <= pipeline_stale_us => {
+        let now_us = clock.now_us();
+        let stalled = match (status_rx.borrow().last_cycle_us, supervisor.stalled(now_us)) {
+            (_, Some((task, age_us))) => Some(format!(
+                "{task} has not shown life for {} ms",
+                age_us / 1000
+            )),
+            (Some(t), None) if now_us - t <= pipeline_stale_us => None,
+            _ => Some("pipeline stalled".into()),
+        };
+        match stalled {
+            None => {
                 let _ = sd_notify::notify(&[sd_notify::NotifyState::Watchdog]);
+                if withheld_for.take().is_some() {
+                    tracing::info!("all tasks alive again: watchdog fed");
+                }
             }
-            _ => tracing::error!("pipeline stalled: withholding the watchdog"),
+            Some(why) => {
+                if withheld_for.as_deref() != Some(why.as_str()) {
+                    tracing::error!("{why}: withholding the watchdog (systemd restarts faithd)");
+                }
+                withheld_for = Some(why);
+            }
         }
     }
 }

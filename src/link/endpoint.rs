@@ -12,6 +12,37 @@ impl<T: AsyncRead + AsyncWrite + Send + Unpin> Transport for T {}
 
 pub type BoxedTransport = Pin<Box<dyn Transport>>;
 
+/// A write to a port that has not completed in this time is stuck (a UART with flow
+/// control held off, a USB adapter wedged): at 115200 baud a 300-byte frame takes
+/// 26 ms. The session ends and the port is reopened, instead of a task hanging with
+/// the roll it holds.
+pub const WRITE_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// Opening (or connecting) takes at most this; then it is tried again later.
+pub const OPEN_TIMEOUT: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// Writes all of `bytes` and flushes, within [`WRITE_TIMEOUT`].
+pub async fn write_bounded(
+    writer: &mut (impl AsyncWrite + Unpin),
+    bytes: &[u8],
+) -> std::io::Result<()> {
+    let write = async {
+        writer.write_all(bytes).await?;
+        writer.flush().await
+    };
+    tokio::time::timeout(WRITE_TIMEOUT, write)
+        .await
+        .unwrap_or_else(|_| {
+            Err(std::io::Error::new(
+                std::io::ErrorKind::TimedOut,
+                format!(
+                    "write not completed within {} ms",
+                    WRITE_TIMEOUT.as_millis()
+                ),
+            ))
+        })
+}
+
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Endpoint {
     /// A UART (or USB CDC) device, at a baud rate.
@@ -75,11 +106,29 @@ impl Endpoint {
         }
     }
 
+    /// Opens the endpoint within [`OPEN_TIMEOUT`].
+    ///
+    /// A serial port starts empty: what the kernel queued before faithd opened it
+    /// (telemetry from before a reconnect) is discarded, since arriving now it would
+    /// pass for fresh and could open the safety gate on a vehicle state that is gone.
     pub async fn open(&self) -> std::io::Result<BoxedTransport> {
+        tokio::time::timeout(OPEN_TIMEOUT, self.open_unbounded())
+            .await
+            .unwrap_or_else(|_| {
+                Err(std::io::Error::new(
+                    std::io::ErrorKind::TimedOut,
+                    format!("not open within {} ms", OPEN_TIMEOUT.as_millis()),
+                ))
+            })
+    }
+
+    async fn open_unbounded(&self) -> std::io::Result<BoxedTransport> {
         match self {
             Endpoint::Serial { path, baud } => {
+                use tokio_serial::SerialPort;
                 let path = path.to_string_lossy();
                 let port = tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud))?;
+                port.clear(tokio_serial::ClearBuffer::Input)?;
                 Ok(Box::pin(port))
             }
             Endpoint::Tcp(addr) => {

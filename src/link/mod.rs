@@ -21,6 +21,7 @@ use tokio::sync::{mpsc, watch};
 
 use crate::attitude::AttitudeSample;
 use crate::daemon::clock::DaemonClock;
+use crate::daemon::supervise::Heartbeat;
 use crate::safety::vehicle::VehicleState;
 use clock_sync::ClockSync;
 use endpoint::{BoxedTransport, Endpoint};
@@ -161,12 +162,14 @@ pub async fn run(
     clock: DaemonClock,
     outputs: LinkOutputs,
     mut outgoing: mpsc::Receiver<MavMessage>,
+    heartbeat: Heartbeat,
 ) {
     let min = Duration::from_micros(config.reconnect_min_us.max(1) as u64);
     let max = Duration::from_micros(config.reconnect_max_us.max(1) as u64);
     let mut backoff = min;
     let mut sequence = 0u8;
     loop {
+        heartbeat.beat();
         match endpoint.open().await {
             Ok(transport) => {
                 tracing::info!(%endpoint, "autopilot link up");
@@ -179,6 +182,7 @@ pub async fn run(
                     &outputs,
                     &mut outgoing,
                     &mut sequence,
+                    &heartbeat,
                 )
                 .await;
                 outputs.vehicle.send_modify(VehicleState::link_lost);
@@ -191,7 +195,7 @@ pub async fn run(
         }
         // Commands queued while the link was down are stale: drop them.
         while outgoing.try_recv().is_ok() {}
-        tokio::time::sleep(backoff).await;
+        heartbeat.sleep(backoff).await;
         backoff = (backoff * 2).min(max);
     }
 }
@@ -204,6 +208,7 @@ async fn serve(
     outputs: &LinkOutputs,
     outgoing: &mut mpsc::Receiver<MavMessage>,
     sequence: &mut u8,
+    alive: &Heartbeat,
 ) -> String {
     let (read_half, mut write_half) = tokio::io::split(transport);
     let mut reader = AsyncMavlinkReader::new(read_half);
@@ -216,8 +221,10 @@ async fn serve(
     let mut foreign = 0u64;
     let silence = Duration::from_micros(config.silence_timeout_us.max(1000) as u64);
     let mut deadline = tokio::time::Instant::now() + silence;
+    let mut beat = tokio::time::interval(crate::daemon::supervise::BEAT_PERIOD);
     loop {
         tokio::select! {
+            _ = beat.tick() => alive.beat(),
             got = reader.read_any_message::<MavMessage>() => match got {
                 Ok((header, msg)) => {
                     if !from_autopilot(config, &header) {
@@ -310,13 +317,10 @@ async fn send(
     };
     record(outputs, clock, clock.now_us(), header, msg);
     *sequence = sequence.wrapping_add(1);
-    mavlink::write_versioned_msg_async(writer, MavlinkVersion::V2, header, msg)
-        .await
-        .map_err(|e| match e {
-            mavlink::error::MessageWriteError::Io(io) => io,
-            other => std::io::Error::other(other.to_string()),
-        })?;
-    tokio::io::AsyncWriteExt::flush(writer).await
+    let mut frame = Vec::with_capacity(280);
+    mavlink::write_versioned_msg(&mut frame, MavlinkVersion::V2, header, msg)
+        .map_err(|e| std::io::Error::other(e.to_string()))?;
+    endpoint::write_bounded(writer, &frame).await
 }
 
 /// faithd announces itself as an onboard controller, not an autopilot.

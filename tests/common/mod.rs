@@ -89,6 +89,8 @@ pub struct MockAutopilot {
     stop: Arc<AtomicBool>,
     threads: Vec<JoinHandle<()>>,
     slave: Option<OwnedFd>,
+    /// Kept here too, so a quiet mock's port stays open with what it holds.
+    master: Option<Arc<OwnedFd>>,
     pub slave_path: PathBuf,
     /// iNav's MSP port for faithd's roll stream, on a pseudo-terminal of its own.
     pub msp: MspMock,
@@ -96,6 +98,18 @@ pub struct MockAutopilot {
 
 /// The pilot's roll stick in the mock: off centre, so whose value iNav uses is clear.
 pub const PILOT_ROLL_US: u16 = 1440;
+
+/// tcflow on a pseudo-terminal's slave: TCOOFF stops what is written to it from
+/// leaving (its writers block), TCOON lets it go again.
+fn hold_output(slave: &OwnedFd, held: bool) {
+    use nix::sys::termios::{FlowArg, tcflow};
+    let action = if held {
+        FlowArg::TCOOFF
+    } else {
+        FlowArg::TCOON
+    };
+    tcflow(slave, action).expect("tcflow");
+}
 
 pub fn raw_pty() -> (OwnedFd, OwnedFd, PathBuf) {
     let pty = nix::pty::openpty(None, None).expect("openpty");
@@ -265,8 +279,23 @@ impl MockAutopilot {
             stop,
             threads,
             slave: Some(slave),
+            master: Some(master),
             slave_path,
         }
+    }
+
+    /// Stops all telemetry but keeps the port open: what was written and not read
+    /// stays queued in it.
+    pub fn go_quiet(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            t.join().unwrap();
+        }
+    }
+
+    /// Holds (or lets go) faithd's writes on the MAVLink port.
+    pub fn hold_faithds_writes(&self, held: bool) {
+        hold_output(self.slave.as_ref().expect("port plugged"), held);
     }
 
     /// Closes the MAVLink port alone (its cable out); the MSP port stays.
@@ -276,6 +305,7 @@ impl MockAutopilot {
             t.join().unwrap();
         }
         self.slave = None;
+        self.master = None;
     }
 
     /// faithd's `[command]` section for this mock's MSP port.
@@ -646,6 +676,12 @@ impl MspMock {
             thread: Some(thread),
             _slave: slave,
         }
+    }
+
+    /// Suspends (or resumes) output on faithd's side of the port, as a UART held
+    /// off by flow control: faithd's writes stop completing.
+    pub fn hold_faithds_writes(&self, held: bool) {
+        hold_output(&self._slave, held);
     }
 
     /// faithd's `[command]` section for this port.

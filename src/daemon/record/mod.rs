@@ -180,7 +180,10 @@ impl Recorder {
         let before = self.stats.queued_bytes.fetch_add(bytes, Ordering::AcqRel);
         if before + bytes > self.max_queue_bytes {
             self.stats.queued_bytes.fetch_sub(bytes, Ordering::AcqRel);
-            let dropped = self.stats.dropped_queue_full.fetch_add(1, Ordering::Relaxed);
+            let dropped = self
+                .stats
+                .dropped_queue_full
+                .fetch_add(1, Ordering::Relaxed);
             if dropped == 0 {
                 tracing::warn!(
                     max_queue_bytes = self.max_queue_bytes,

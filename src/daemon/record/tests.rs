@@ -90,10 +90,7 @@ fn the_queue_is_bounded_in_bytes_and_counts_what_it_drops() {
     let counts = recorder.stats().counts();
     let queued = 1024 * 1024 / per_batch;
     // At most `queued` batches fit; every other batch was dropped and counted.
-    assert!(
-        counts.dropped_queue_full >= 1000 - queued,
-        "{counts:?}"
-    );
+    assert!(counts.dropped_queue_full >= 1000 - queued, "{counts:?}");
     assert!(recorder.queued_bytes() > 1024 * 1024 - per_batch);
 }
 
@@ -108,7 +105,10 @@ fn the_budget_holds_at_all_times_for_a_flight_without_camera() {
     let mut max_seen = 0;
     for k in 0..20_000u64 {
         recorder.send(attitude(k));
-        recorder.send(Item::Window(format!("{{\"t_us\":{k},\"pad\":\"{}\"}}", "y".repeat(150))));
+        recorder.send(Item::Window(format!(
+            "{{\"t_us\":{k},\"pad\":\"{}\"}}",
+            "y".repeat(150)
+        )));
         if k % 500 == 0 {
             std::thread::sleep(Duration::from_millis(5));
             max_seen = max_seen.max(on_disk(dir.path()).0);
@@ -122,9 +122,15 @@ fn the_budget_holds_at_all_times_for_a_flight_without_camera() {
     assert_eq!(counts.windows_written, 20_000, "{counts}");
     assert_eq!(counts.losses(), 0, "{counts}");
     assert!(counts.files_deleted > 10, "{counts}");
-    assert!(!names.contains(&"flight-1-001.tlog".to_string()), "{names:?}");
+    assert!(
+        !names.contains(&"flight-1-001.tlog".to_string()),
+        "{names:?}"
+    );
     // Parts rotate: the newest windows are in the last part, each part within its size.
-    let last_window = names.iter().rfind(|n| n.ends_with(".windows.jsonl")).unwrap();
+    let last_window = names
+        .iter()
+        .rfind(|n| n.ends_with(".windows.jsonl"))
+        .unwrap();
     assert!(!last_window.ends_with("-001.windows.jsonl"), "{names:?}");
     let text = std::fs::read_to_string(dir.path().join(last_window)).unwrap();
     assert!(text.starts_with("{\"faithd_window_log\""), "header first");
@@ -153,7 +159,9 @@ fn bad_events_are_skipped_and_the_configured_sensor_is_written() {
     assert_eq!(counts.bad_events, 2, "{counts}");
     assert_eq!(counts.events_written, 3, "{counts}");
     let (_, names) = on_disk(dir.path());
-    let path = dir.path().join(names.iter().find(|n| n.ends_with(".aedat4")).unwrap());
+    let path = dir
+        .path()
+        .join(names.iter().find(|n| n.ends_with(".aedat4")).unwrap());
     let mut reader = Aedat4Reader::new(std::fs::File::open(path).unwrap()).unwrap();
     let stream = &reader.streams()[0];
     assert_eq!((stream.width_px, stream.height_px), (Some(346), Some(260)));

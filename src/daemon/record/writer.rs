@@ -4,9 +4,9 @@
 //! Every write puts whole records on disk or none: a write that fails halfway (a full
 //! card) is cut back to the last whole record, so what was written before the fault
 //! always reads back, and a full card never deletes it. Nothing here ends the
-//! recording: a bad event is skipped, an item
-//! that finds no room is dropped, a file that cannot be opened is tried again with
-//! the next item; each is counted and reported.
+//! recording: a bad event is skipped, an item that finds no room is dropped, a file
+//! that cannot be opened is tried again with the next item; each is counted and
+//! reported.
 
 use std::fs::File;
 use std::io::{Seek, SeekFrom, Write};
@@ -382,13 +382,13 @@ impl<'a> Recording<'a> {
             file,
             bytes: 0,
         });
-        if let Some(header) = stream.header.clone() {
-            if let Err(loss) = self.write_record(kind, &header) {
-                // A file without its header is no window log: start over next time.
-                self.stream(kind).open = None;
-                let _ = std::fs::remove_file(&path);
-                return Err(loss);
-            }
+        if let Some(header) = stream.header.clone()
+            && let Err(loss) = self.write_record(kind, &header)
+        {
+            // A file without its header is no window log: start over next time.
+            self.stream(kind).open = None;
+            let _ = std::fs::remove_file(&path);
+            return Err(loss);
         }
         Ok(())
     }
@@ -398,7 +398,11 @@ impl<'a> Recording<'a> {
     /// A full card drops the record rather than delete anything: what was recorded
     /// before the fault is kept (only `max_total_bytes` deletes, oldest first).
     fn write_record(&mut self, kind: StreamKind, record: &[u8]) -> Result<(), Loss> {
-        let open = self.stream(kind).open.as_mut().expect("opened by the caller");
+        let open = self
+            .stream(kind)
+            .open
+            .as_mut()
+            .expect("opened by the caller");
         match open.file.write_all(record) {
             Ok(()) => {
                 open.bytes += record.len() as u64;

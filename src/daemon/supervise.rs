@@ -1,0 +1,172 @@
+//! Who keeps the systemd watchdog fed: every task a roll's safety depends on.
+//!
+//! The pipeline shows it is alive by finishing cycles; the link, the MSP stream and
+//! the commander beat a [`Heartbeat`] at least every [`BEAT_PERIOD`], even while they
+//! wait for a port to come back, and every operation they await is bounded in time
+//! (writes, opens, replies). So a task that stops beating is stuck or gone, and the
+//! daemon stops feeding the watchdog: systemd kills and restarts it, and the
+//! restarted daemon's first frame is the centre.
+//!
+//! A panic anywhere ends the daemon on purpose ([`install_panic_hook`]): the roll is
+//! released and the exit status is non-zero, so systemd restarts it too.
+
+use std::sync::Arc;
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::time::Duration;
+
+use super::clock::DaemonClock;
+
+/// How often a supervised task beats, at least.
+pub const BEAT_PERIOD: Duration = Duration::from_millis(100);
+
+/// A supervised task that has not beaten for this long is stuck. Under half of the
+/// unit's `WatchdogSec=2`, so systemd acts within two seconds of the stall.
+pub const STALL_LIMIT_US: i64 = 1_000_000;
+
+/// The time a task last showed it was alive.
+#[derive(Clone, Debug)]
+pub struct Heartbeat {
+    last_us: Arc<AtomicI64>,
+    clock: DaemonClock,
+}
+
+impl Heartbeat {
+    pub fn beat(&self) {
+        self.last_us.store(self.clock.now_us(), Ordering::Release);
+    }
+
+    /// Sleeps for `duration`, beating meanwhile: a task waiting to reconnect is alive.
+    pub async fn sleep(&self, duration: Duration) {
+        let until = tokio::time::Instant::now() + duration;
+        loop {
+            self.beat();
+            let now = tokio::time::Instant::now();
+            if now >= until {
+                return;
+            }
+            tokio::time::sleep((until - now).min(BEAT_PERIOD)).await;
+        }
+    }
+}
+
+/// The supervised tasks and their heartbeats.
+#[derive(Clone, Debug)]
+pub struct Supervisor {
+    clock: DaemonClock,
+    tasks: Vec<(&'static str, Arc<AtomicI64>)>,
+}
+
+impl Supervisor {
+    pub fn new(clock: DaemonClock) -> Self {
+        Self {
+            clock,
+            tasks: Vec::new(),
+        }
+    }
+
+    /// Registers a task; it counts as alive from now.
+    pub fn register(&mut self, name: &'static str) -> Heartbeat {
+        let last_us = Arc::new(AtomicI64::new(self.clock.now_us()));
+        self.tasks.push((name, last_us.clone()));
+        Heartbeat {
+            last_us,
+            clock: self.clock,
+        }
+    }
+
+    /// The first task that has not beaten within `STALL_LIMIT_US`, and for how long.
+    pub fn stalled(&self, now_us: i64) -> Option<(&'static str, i64)> {
+        self.tasks.iter().find_map(|(name, last)| {
+            let age_us = now_us - last.load(Ordering::Acquire);
+            (age_us > STALL_LIMIT_US).then_some((*name, age_us))
+        })
+    }
+}
+
+/// Why the daemon ends against its will.
+static FAULT: OnceLock<tokio::sync::watch::Sender<Option<String>>> = OnceLock::new();
+
+fn fault_channel() -> &'static tokio::sync::watch::Sender<Option<String>> {
+    FAULT.get_or_init(|| tokio::sync::watch::channel(None).0)
+}
+
+/// Turns a panic in any thread into a daemon fault: the panic is printed as usual,
+/// then [`fault`] resolves and the daemon releases the roll and exits non-zero. A
+/// half-alive daemon (a dead link or pipeline behind a running process) is what
+/// systemd cannot see; a dead one it restarts.
+pub fn install_panic_hook() {
+    static ONCE: OnceLock<()> = OnceLock::new();
+    ONCE.get_or_init(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            // The fault first: printing a backtrace can take a good part of a second,
+            // and the release must not wait for it.
+            let thread = std::thread::current()
+                .name()
+                .unwrap_or("unnamed thread")
+                .to_string();
+            let what = info
+                .payload()
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "panic".into());
+            let at = info
+                .location()
+                .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                .unwrap_or_default();
+            report_fault(format!("panic in {thread}: {what}{at}"));
+            previous(info);
+        }));
+    });
+}
+
+/// Ends the daemon with a fault (the first one reported wins).
+pub fn report_fault(why: String) {
+    fault_channel().send_if_modified(|f| {
+        if f.is_none() {
+            *f = Some(why);
+            true
+        } else {
+            false
+        }
+    });
+}
+
+/// Resolves with the first fault reported.
+pub async fn fault() -> String {
+    let mut rx = fault_channel().subscribe();
+    loop {
+        if let Some(why) = rx.borrow_and_update().clone() {
+            return why;
+        }
+        if rx.changed().await.is_err() {
+            std::future::pending::<()>().await;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_task_that_stops_beating_is_named_after_the_limit() {
+        let clock = DaemonClock::start();
+        let mut supervisor = Supervisor::new(clock);
+        let link = supervisor.register("link");
+        let stream = supervisor.register("MSP stream");
+        let now = clock.now_us();
+        assert_eq!(supervisor.stalled(now), None);
+        link.beat();
+        stream.beat();
+        let later = clock.now_us() + STALL_LIMIT_US + 1;
+        let (name, age_us) = supervisor.stalled(later).expect("both stalled");
+        assert_eq!(name, "link");
+        assert!(age_us > STALL_LIMIT_US);
+        // The link beats again: only the stream is stuck.
+        link.last_us.store(later, Ordering::Release);
+        assert_eq!(supervisor.stalled(later).map(|s| s.0), Some("MSP stream"));
+    }
+}
