@@ -24,6 +24,7 @@ pub mod event;
 pub mod flow;
 pub mod foe;
 pub mod link;
+pub mod logging;
 pub mod pipeline;
 pub mod replay;
 pub mod safety;

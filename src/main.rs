@@ -686,14 +686,7 @@ fn main() -> ExitCode {
         Command::Demo { .. } => "info,faithd::daemon::cycle=warn",
         _ => "info",
     };
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default_filter)),
-        )
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
-        .init();
+    let _log = faithd::logging::init(default_filter);
     match cli.command {
         Command::Demo {
             seed,

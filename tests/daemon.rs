@@ -670,3 +670,44 @@ fn telemetry_queued_before_a_reconnect_is_not_taken_as_fresh() {
     assert!(!after.contains("safety gate open"), "{after}");
     assert!(!after.contains("autopilot state"), "{after}");
 }
+
+#[test]
+fn a_journal_that_stops_reading_never_holds_up_a_roll() {
+    // stderr into a pipe nobody reads, with a line per cycle: the pipe fills in
+    // seconds. faithd logs through a queue, so the pipeline, the link and the
+    // commander go on, and later approaches are still avoided.
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let dir = TempDir::new("stuck-journal");
+    let config = dir.0.join("faithd.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nsim_first_approach_us = 600000\nsim_repeat_us = 3000000\n[record]\nenabled = false\n",
+            mock.slave_path.display(),
+            mock.command_toml()
+        ),
+    )
+    .unwrap();
+    let started = Instant::now();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["run", "--simulated-camera", "--config"])
+        .arg(&config)
+        .env("RUST_LOG", "debug")
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let late = started + Duration::from_secs(7);
+    let rolled_late = mock
+        .msp
+        .wait_for(Duration::from_secs(15), |m| m.roll_after(late).is_some());
+    let _ = nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGKILL,
+    );
+    let _ = child.wait();
+    assert!(
+        mock.msp.first_roll().is_some(),
+        "no roll at all with the journal unread"
+    );
+    assert!(rolled_late, "no roll after the journal's pipe filled up");
+}

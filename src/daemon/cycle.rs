@@ -10,7 +10,7 @@ use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use tokio::sync::{mpsc, watch};
+use tokio::sync::watch;
 
 use super::DaemonConfig;
 use super::clock::DaemonClock;
@@ -23,6 +23,41 @@ use crate::replay::WindowLine;
 use crate::safety::gate::{PipelineProblem, PipelineStatus};
 use crate::window_log::WindowLogLine;
 
+/// Repeated warnings (overruns) are logged at most this often, with a count.
+const LOG_EVERY_US: i64 = 5_000_000;
+
+/// Logs the first of a run of events at once and then at most once per period, with
+/// how many happened since the last line.
+#[derive(Debug)]
+pub struct Throttle {
+    period_us: i64,
+    last_line_us: Option<i64>,
+    since: u64,
+}
+
+impl Throttle {
+    pub fn new(period_us: i64) -> Self {
+        Self {
+            period_us,
+            last_line_us: None,
+            since: 0,
+        }
+    }
+
+    /// Counts one event; calls `log` with the count since the last line when due.
+    pub fn event(&mut self, now_us: i64, log: impl FnOnce(u64)) {
+        self.since += 1;
+        if self
+            .last_line_us
+            .is_none_or(|t| now_us - t >= self.period_us)
+        {
+            log(self.since);
+            self.since = 0;
+            self.last_line_us = Some(now_us);
+        }
+    }
+}
+
 /// A roll decision and the newest event of the window that produced it.
 #[derive(Clone, Copy, Debug)]
 pub struct RollDecision {
@@ -34,7 +69,9 @@ pub struct CycleIo {
     pub events: Receiver<Vec<Event>>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
     pub status: watch::Sender<PipelineStatus>,
-    pub decisions: mpsc::Sender<RollDecision>,
+    /// The newest roll decision: a newer one replaces one the commander has not
+    /// read yet (it only acts on fresh decisions), so none is ever refused.
+    pub decisions: watch::Sender<Option<RollDecision>>,
     pub recorder: Option<super::record::Recorder>,
 }
 
@@ -59,6 +96,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
     // The load-shedding settings in force, for the window log.
     let mut max_vectors = pipeline_config.max_vectors;
     let mut foe_iterations = pipeline_config.faith.iterations;
+    let mut overrun_log = Throttle::new(LOG_EVERY_US);
     loop {
         // Wait for the period's end, taking batches as they come.
         loop {
@@ -124,11 +162,10 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             tracing::debug!(t_us = decision.t_us, "decision: {decision}");
         }
         if matches!(decision.action, Action::Roll { .. }) {
-            // Full means the commander has an unread roll already: dropping is fine.
-            let _ = io.decisions.try_send(RollDecision {
+            io.decisions.send_replace(Some(RollDecision {
                 decision,
                 last_event_us,
-            });
+            }));
         }
         if let (Some(recorder), Some(line)) = (&io.recorder, window_line) {
             let logged = WindowLogLine {
@@ -154,12 +191,15 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             );
         }
         if cycle_us > config.budget_us {
-            tracing::warn!(
-                cycle_us,
-                budget_us = config.budget_us,
-                overruns = shedder.overruns,
-                "cycle overran its budget"
-            );
+            overrun_log.event(clock.now_us(), |since| {
+                tracing::warn!(
+                    cycle_us,
+                    budget_us = config.budget_us,
+                    overruns = shedder.overruns,
+                    since_last_line = since,
+                    "cycle overran its budget"
+                )
+            });
         }
         next_us += config.period_us;
         let now = clock.now_us();
@@ -168,5 +208,20 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             let missed = (now - next_us) / config.period_us + 1;
             next_us += missed * config.period_us;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Throttle;
+
+    #[test]
+    fn a_throttle_logs_the_first_then_once_per_period_with_the_count() {
+        let mut throttle = Throttle::new(1000);
+        let mut lines = Vec::new();
+        for t in 0..2500 {
+            throttle.event(t, |n| lines.push((t, n)));
+        }
+        assert_eq!(lines, [(0, 1), (1000, 1000), (2000, 1000)]);
     }
 }

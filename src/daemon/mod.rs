@@ -253,7 +253,7 @@ pub async fn serve(
     ));
 
     let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
-    let (decision_tx, decision_rx) = mpsc::channel(4);
+    let (decision_tx, decision_rx) = watch::channel(None);
     let (batch_tx, batch_rx) = std::sync::mpsc::sync_channel(256);
     std::thread::Builder::new()
         .name("faithd-source".into())
@@ -286,6 +286,7 @@ pub async fn serve(
         supervisor.register("MSP roll stream"),
     );
     let commander_beat = supervisor.register("commander");
+    tokio::spawn(report_dropped_log_lines());
 
     tokio::spawn(systemd_notifier(
         clock,
@@ -390,7 +391,7 @@ struct RollCheck {
 struct CommanderInputs {
     vehicle_rx: watch::Receiver<VehicleState>,
     status_rx: watch::Receiver<PipelineStatus>,
-    decision_rx: mpsc::Receiver<cycle::RollDecision>,
+    decision_rx: watch::Receiver<Option<cycle::RollDecision>>,
     observer: Option<mpsc::UnboundedSender<Observation>>,
     heartbeat: supervise::Heartbeat,
 }
@@ -428,8 +429,11 @@ async fn commander_task(
             Ok(()) = vehicle_rx.changed() => {}
             Ok(()) = status_rx.changed() => {}
             Ok(()) = stream_rx.changed() => {}
-            Some(cycle::RollDecision { decision: d, last_event_us }) = decision_rx.recv() => {
-                if let Action::Roll { direction, duration_us } = d.action {
+            Ok(()) = decision_rx.changed() => {
+                let newest = *decision_rx.borrow_and_update();
+                if let Some(cycle::RollDecision { decision: d, last_event_us }) = newest
+                    && let Action::Roll { direction, duration_us } = d.action
+                {
                     request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us, d));
                     tracing::debug!("roll requested: {d}");
                 }
@@ -604,6 +608,25 @@ async fn systemd_notifier(
                 }
                 withheld_for = Some(why);
             }
+        }
+    }
+}
+
+/// Says how many journal lines were dropped while the journal was behind, once it
+/// keeps up again (the count itself is a line that may be dropped, so it repeats).
+async fn report_dropped_log_lines() {
+    let mut reported = crate::logging::dropped_lines();
+    let mut tick = tokio::time::interval(Duration::from_secs(5));
+    loop {
+        tick.tick().await;
+        let dropped = crate::logging::dropped_lines();
+        if dropped != reported {
+            tracing::warn!(
+                dropped_lines = dropped - reported,
+                total = dropped,
+                "the journal fell behind: log lines dropped"
+            );
+            reported = dropped;
         }
     }
 }

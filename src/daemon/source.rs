@@ -78,6 +78,7 @@ pub fn run_sim(
     let mut start_us = config.sim_first_approach_us;
     let mut next = 0usize;
     let mut dropped = 0u64;
+    let mut drop_log = super::cycle::Throttle::new(5_000_000);
     loop {
         std::thread::sleep(BATCH_PERIOD);
         let now_us = clock.now_us();
@@ -100,7 +101,13 @@ pub fn run_sim(
             Ok(()) => {}
             Err(TrySendError::Full(_)) => {
                 dropped += 1;
-                tracing::warn!(dropped, "pipeline not keeping up: event batch dropped");
+                drop_log.event(clock.now_us(), |since| {
+                    tracing::warn!(
+                        dropped,
+                        since_last_line = since,
+                        "pipeline not keeping up: event batch dropped"
+                    )
+                });
             }
             Err(TrySendError::Disconnected(_)) => return,
         }
