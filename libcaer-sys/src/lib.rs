@@ -1,5 +1,5 @@
 //! The few libcaer functions faithd needs, declared from libcaer's public headers
-//! (`libcaer/devices/device.h`, `devices/usb.h`, `events/packetContainer.h`,
+//! (`libcaer/devices/device.h`, `devices/usb.h`, `devices/davis.h`, `events/packetContainer.h`,
 //! `events/common.h`, `events/polarity.h`, libcaer 3.x).
 //!
 //! Event packets are read through their documented memory layout (the same layout
@@ -40,6 +40,74 @@ pub const POLARITY_EVENT: i16 = 1;
 pub const PACKET_HEADER_BYTES: usize = 28;
 
 pub type NotifyFn = Option<unsafe extern "C" fn(ptr: *mut c_void)>;
+
+/// `struct caer_davis_info` of libcaer 3.x (`libcaer/devices/davis.h`), field for field,
+/// as `caerDavisInfoGet` returns it **by value**.
+///
+/// Why this and not another way to learn the sensor size: libcaer 3 has no generic
+/// `caerDeviceInfoGet`; every device family has its own `caer<Family>InfoGet` returning
+/// its struct by value, and `caerDavisInfoGet` is the documented way to read the DVS
+/// size (the raw `DAVIS_CONFIG_DVS_SIZE_COLUMNS`/`_ROWS` parameters are marked
+/// internal and ignore the X/Y swap that `dvsSizeX/Y` already apply). A struct
+/// returned by value is as stable as its layout, so the layout is pinned below: the
+/// sizes and offsets of the fields faithd reads are checked at compile time on 64-bit
+/// targets, where a struct this size is returned through a caller-allocated buffer
+/// (x86-64 SysV and AArch64 alike), exactly what `extern "C"` does with this type.
+/// The two C enums (`apsColorFilter`, `imuType`) are plain `i32` here so that an
+/// unknown value from a newer libcaer is a number, not undefined behaviour.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct caer_davis_info {
+    pub deviceID: i16,
+    pub deviceSerialNumber: [c_char; 9],
+    pub deviceUSBBusNumber: u8,
+    pub deviceUSBDeviceAddress: u8,
+    /// Valid only while the device is open; faithd does not read it.
+    pub deviceString: *mut c_char,
+    pub firmwareVersion: i16,
+    pub logicVersion: i16,
+    pub chipID: i16,
+    pub deviceIsMaster: bool,
+    pub muxHasStatistics: bool,
+    pub dvsSizeX: i16,
+    pub dvsSizeY: i16,
+    pub dvsHasPixelFilter: bool,
+    pub dvsHasBackgroundActivityFilter: bool,
+    pub dvsHasROIFilter: bool,
+    pub dvsHasSkipFilter: bool,
+    pub dvsHasPolarityFilter: bool,
+    pub dvsHasStatistics: bool,
+    pub apsSizeX: i16,
+    pub apsSizeY: i16,
+    /// `enum caer_frame_event_color_filter`.
+    pub apsColorFilter: i32,
+    pub apsHasGlobalShutter: bool,
+    /// `enum caer_imu_types`.
+    pub imuType: i32,
+    pub extInputHasGenerator: bool,
+}
+
+#[cfg(target_pointer_width = "64")]
+const _: () = {
+    use std::mem::{offset_of, size_of};
+    assert!(size_of::<caer_davis_info>() == 64);
+    assert!(offset_of!(caer_davis_info, deviceString) == 16);
+    assert!(offset_of!(caer_davis_info, chipID) == 28);
+    assert!(offset_of!(caer_davis_info, dvsSizeX) == 32);
+    assert!(offset_of!(caer_davis_info, dvsSizeY) == 34);
+    assert!(offset_of!(caer_davis_info, apsColorFilter) == 48);
+    assert!(offset_of!(caer_davis_info, imuType) == 56);
+};
+
+impl caer_davis_info {
+    /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell:
+    /// `caerDavisInfoGet` returns all zeros on failure.
+    pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
+        let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
+        let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
+        Some((x, y))
+    }
+}
 
 /// The library names tried, in order, when no path is configured: libcaer 3's
 /// soname, then the development symlink.
@@ -133,6 +201,10 @@ libcaer_functions! {
     caerEventPacketContainerFree: fn(container: caerEventPacketContainer);
     caerEventPacketContainerGetEventPacketsNumber: fn(container: caerEventPacketContainer) -> i32;
     caerEventPacketContainerGetEventPacket: fn(container: caerEventPacketContainer, n: i32) -> caerEventPacketHeader;
+    // Required, not optional: every libcaer since 1.0 exports it, and faithd must not
+    // stream from a camera whose size it could not check (a DAVIS346 read as a 240x180
+    // would be silently cropped).
+    caerDavisInfoGet: fn(handle: caerDeviceHandle) -> caer_davis_info;
 }
 
 impl Libcaer {
@@ -170,6 +242,17 @@ pub mod mock {
         pub open_attempts: unsafe extern "C" fn() -> i32,
         /// Last value set for (module, parameter), or -1.
         pub config_value: unsafe extern "C" fn(mod_addr: i8, param_addr: u8) -> i64,
+        /// The DVS size `caerDavisInfoGet` reports (240x180 until set; `set` restores it).
+        pub sensor: unsafe extern "C" fn(width_px: i16, height_px: i16),
+        /// The device clock: it runs at `rate` times real time (1.02: 2 % fast) and each
+        /// container arrives a uniform random `latency_min_us..=latency_max_us` after its
+        /// newest event. Containers are paced in real time. `set` restores (1, 0, 0).
+        pub clock: unsafe extern "C" fn(rate: f64, latency_min_us: i32, latency_max_us: i32),
+        /// CLOCK_MONOTONIC in microseconds (Rust's `Instant` on Linux).
+        pub now_us: unsafe extern "C" fn() -> i64,
+        /// The CLOCK_MONOTONIC time (us) at which the device clock of the current
+        /// session read `device_us`: when an event stamped so really happened.
+        pub true_host_us: unsafe extern "C" fn(device_us: i64) -> i64,
         _library: libloading::Library,
     }
 
@@ -188,6 +271,16 @@ pub mod mock {
                     config_value: *library
                         .get(b"caer_mock_config_value\0")
                         .expect("caer_mock_config_value"),
+                    sensor: *library
+                        .get(b"caer_mock_sensor\0")
+                        .expect("caer_mock_sensor"),
+                    clock: *library.get(b"caer_mock_clock\0").expect("caer_mock_clock"),
+                    now_us: *library
+                        .get(b"caer_mock_now_us\0")
+                        .expect("caer_mock_now_us"),
+                    true_host_us: *library
+                        .get(b"caer_mock_true_host_us\0")
+                        .expect("caer_mock_true_host_us"),
                     _library: library,
                 }
             }

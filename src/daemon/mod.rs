@@ -147,14 +147,21 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
                 ),
             })?;
             tracing::info!(library = %lib.path, "libcaer loaded");
+            let sensor = crate::source::caer::SensorSize {
+                width_px: camera.width_px,
+                height_px: camera.height_px,
+            };
             Box::new(move |clock, batches| {
-                crate::source::caer::run(
+                if let Err(e) = crate::source::caer::run(
                     &lib,
                     source_config.caer_settings,
+                    sensor,
                     clock,
                     batches,
                     Duration::from_secs(2),
-                )
+                ) {
+                    tracing::error!("camera source stopped: {e}");
+                }
             })
         }
     };

@@ -18,6 +18,7 @@ pub mod aedat3;
 pub mod aedat4;
 pub mod caer;
 mod counted;
+pub mod device_clock;
 mod error;
 pub mod text;
 
