@@ -288,7 +288,7 @@ pub fn replay_window_log(
         path: log_path.display().to_string(),
         source,
     })?;
-    let mut lines = std::io::BufReader::new(file).lines().enumerate();
+    let mut lines = std::io::BufReader::new(file).lines().enumerate().peekable();
     let header_text = match lines.next() {
         Some((_, line)) => line.map_err(|source| ReplayError::Io {
             path: log_path.display().to_string(),
@@ -321,14 +321,24 @@ pub fn replay_window_log(
     let mut samples = Vec::new();
     let mut seen = 0;
     let mut result = LogReplay::default();
-    for (index, line) in lines {
+    while let Some((index, line)) = lines.next() {
         let line_no = index + 1;
         let text = line.map_err(|source| ReplayError::Io {
             path: log_path.display().to_string(),
             source,
         })?;
-        let recorded: serde_json::Value =
-            serde_json::from_str(&text).map_err(|e| log_err(line_no, e.to_string()))?;
+        let recorded: serde_json::Value = match serde_json::from_str(&text) {
+            Ok(v) => v,
+            Err(e) if lines.peek().is_none() && !ends_with_newline(log_path) => {
+                // The daemon was killed (or lost power) while writing this line.
+                tracing::warn!(
+                    line = line_no,
+                    "the window log ends in a line cut short ({e}): the recording stopped mid-write; replayed up to the line before"
+                );
+                break;
+            }
+            Err(e) => return Err(log_err(line_no, e.to_string())),
+        };
         let window =
             RecordedWindow::deserialize(&recorded).map_err(|e| log_err(line_no, e.to_string()))?;
         // Load shedding only ever lowers these from the configured values.
@@ -462,4 +472,14 @@ impl AttitudeArrivals {
         }
         self.log.copy_for_window(t_us, history_us, out);
     }
+}
+
+/// Whether a file's last byte is a newline (a file cut mid-line is not).
+fn ends_with_newline(path: &std::path::Path) -> bool {
+    use std::io::{Read, Seek, SeekFrom};
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut last = [0u8; 1];
+    file.seek(SeekFrom::End(-1)).is_ok() && file.read_exact(&mut last).is_ok() && last[0] == b'\n'
 }

@@ -711,3 +711,28 @@ fn a_journal_that_stops_reading_never_holds_up_a_roll() {
     );
     assert!(rolled_late, "no roll after the journal's pipe filled up");
 }
+
+#[test]
+fn a_camera_of_another_size_stops_the_daemon_with_the_keys_to_change() {
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let dir = TempDir::new("caer-size");
+    let config = dir.0.join("faithd.toml");
+    std::fs::write(
+        &config,
+        mock.service_toml(libcaer_sys::mock::LIBRARY, "enabled = false"),
+    )
+    .unwrap();
+    let output = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["run", "--config"])
+        .arg(&config)
+        .env("RUST_LOG", "info")
+        .env("CAER_MOCK_SENSOR", "346x260")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&output.stderr);
+    // A configuration error: exit 2, which the unit does not restart.
+    assert_eq!(output.status.code(), Some(2), "{text}");
+    assert!(text.contains("camera is 346x260"), "{text}");
+    assert!(text.contains("pipeline.camera.width_px"), "{text}");
+    assert!(text.contains("roll channel"), "{text}");
+}

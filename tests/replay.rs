@@ -204,3 +204,41 @@ fn a_crafted_window_log_header_is_refused_before_it_allocates() {
     assert!(err.contains("pipeline.max_vectors"), "{err}");
     assert!(err.contains("line 1"), "{err}");
 }
+
+/// A daemon killed (or a battery pulled) while it wrote a window line leaves that
+/// line cut short at the end of the log: replay goes up to the line before and says
+/// so. The same damage anywhere else is still refused with its line number.
+#[test]
+fn a_window_log_cut_short_by_a_kill_replays_up_to_its_last_whole_line() {
+    let dir = common::TempDir::new("replay-torn-log");
+    write_inputs(&dir.0);
+    let header = faithd::window_log::WindowLogHeader {
+        faithd_window_log: faithd::window_log::WINDOW_LOG_VERSION,
+        faithd_version: "0.1.0".into(),
+        clock_start_unix_us: 0,
+        own_system_id: 1,
+        own_component_id: 191,
+        autopilot_system_id: 1,
+        autopilot_component_id: Some(1),
+        clock_sync_window: 50,
+        pipeline: faithd::pipeline::PipelineConfig::default(),
+    };
+    let header = serde_json::to_string(&header).unwrap();
+    let events = dir.0.join("flight.aedat4");
+    let log = dir.0.join("flight.windows.jsonl");
+    let run = |text: &str| {
+        std::fs::write(&log, text).unwrap();
+        replay(&[
+            "--events",
+            events.to_str().unwrap(),
+            "--windows",
+            log.to_str().unwrap(),
+        ])
+    };
+    let (code, _, err) = run(&format!("{header}\n{{\"t_us\":12"));
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("cut short"), "{err}");
+    let (code, _, err) = run(&format!("{header}\n{{\"t_us\":12\n{{\"t_us\":13}}\n"));
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("line 2"), "{err}");
+}

@@ -10,6 +10,7 @@
 #define _GNU_SOURCE
 #include <errno.h>
 #include <stdbool.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -88,6 +89,25 @@ void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens
     clock_rate = 1.0;
     latency_min_us = latency_max_us = 0;
     latency_rng = 1;
+}
+
+/*
+ * A daemon under test loads this library in its own process, out of reach of the
+ * script functions: the same script is read from the environment when the library
+ * is loaded. CAER_MOCK_SENSOR=WxH, CAER_MOCK_DISCONNECT_AFTER=containers,
+ * CAER_MOCK_FAILED_OPENS=opens refused after the disconnect.
+ */
+__attribute__((constructor)) static void caer_mock_from_env(void) {
+    const char *sensor = getenv("CAER_MOCK_SENSOR");
+    const char *after = getenv("CAER_MOCK_DISCONNECT_AFTER");
+    const char *failed = getenv("CAER_MOCK_FAILED_OPENS");
+    int w = 0, h = 0;
+    if (sensor && sscanf(sensor, "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w < 32768 && h < 32768) {
+        sensor_width_px = (int16_t) w;
+        sensor_height_px = (int16_t) h;
+    }
+    if (after) script_before_disconnect = (int32_t) atoi(after);
+    if (failed) script_failed_opens = (int32_t) atoi(failed);
 }
 
 void caer_mock_sensor(int16_t width_px, int16_t height_px) {

@@ -89,6 +89,8 @@ pub enum Ended {
     Requested(&'static str),
     /// A task panicked, ended or could not go on.
     Fault(String),
+    /// What the daemon found contradicts its configuration (exit 2, no restart).
+    Refused { key: &'static str, reason: String },
 }
 
 /// What a person asked for on the command line of `faithd run`.
@@ -160,7 +162,10 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
                     batches,
                     Duration::from_secs(2),
                 ) {
-                    tracing::error!("camera source stopped: {e}");
+                    supervise::report_fault(supervise::Fault::Refused {
+                        key: "pipeline.camera.width_px",
+                        reason: e.to_string(),
+                    });
                 }
             })
         }
@@ -182,6 +187,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     match ended {
         Ended::Requested(_) => Ok(()),
         Ended::Fault(why) => Err(DaemonError::Fault(why)),
+        Ended::Refused { key, reason } => Err(DaemonError::Config { key, reason }),
     }
 }
 
@@ -320,9 +326,15 @@ pub async fn serve(
             tracing::info!("shutdown requested ({why})");
             Ended::Requested(why)
         }
-        why = supervise::fault() => {
-            tracing::error!("{why}: releasing the roll and stopping (systemd restarts faithd)");
-            Ended::Fault(why)
+        fault = supervise::fault() => match fault {
+            supervise::Fault::Crash(why) => {
+                tracing::error!("{why}: releasing the roll and stopping (systemd restarts faithd)");
+                Ended::Fault(why)
+            }
+            supervise::Fault::Refused { key, reason } => {
+                tracing::error!("`{key}`: {reason}: releasing the roll and stopping");
+                Ended::Refused { key, reason }
+            }
         }
     };
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
@@ -578,7 +590,9 @@ async fn systemd_notifier(
         }
         tokio::select! {
             changed = vehicle_rx.changed() => if changed.is_err() {
-                supervise::report_fault("the autopilot link task ended before READY".into());
+                supervise::report_fault(supervise::Fault::Crash(
+                    "the autopilot link task ended before READY".into(),
+                ));
                 return;
             },
             _ = tokio::time::sleep(Duration::from_millis(20)) => {}

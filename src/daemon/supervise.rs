@@ -85,9 +85,27 @@ impl Supervisor {
 }
 
 /// Why the daemon ends against its will.
-static FAULT: OnceLock<tokio::sync::watch::Sender<Option<String>>> = OnceLock::new();
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// A task panicked or ended: systemd restarts the daemon.
+    Crash(String),
+    /// Something found at run time contradicts the configuration (a camera of
+    /// another size): restarting cannot help, the configuration must change.
+    Refused { key: &'static str, reason: String },
+}
 
-fn fault_channel() -> &'static tokio::sync::watch::Sender<Option<String>> {
+impl std::fmt::Display for Fault {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Fault::Crash(why) => f.write_str(why),
+            Fault::Refused { key, reason } => write!(f, "`{key}`: {reason}"),
+        }
+    }
+}
+
+static FAULT: OnceLock<tokio::sync::watch::Sender<Option<Fault>>> = OnceLock::new();
+
+fn fault_channel() -> &'static tokio::sync::watch::Sender<Option<Fault>> {
     FAULT.get_or_init(|| tokio::sync::watch::channel(None).0)
 }
 
@@ -116,14 +134,14 @@ pub fn install_panic_hook() {
                 .location()
                 .map(|l| format!(" at {}:{}", l.file(), l.line()))
                 .unwrap_or_default();
-            report_fault(format!("panic in {thread}: {what}{at}"));
+            report_fault(Fault::Crash(format!("panic in {thread}: {what}{at}")));
             previous(info);
         }));
     });
 }
 
 /// Ends the daemon with a fault (the first one reported wins).
-pub fn report_fault(why: String) {
+pub fn report_fault(why: Fault) {
     fault_channel().send_if_modified(|f| {
         if f.is_none() {
             *f = Some(why);
@@ -135,7 +153,7 @@ pub fn report_fault(why: String) {
 }
 
 /// Resolves with the first fault reported.
-pub async fn fault() -> String {
+pub async fn fault() -> Fault {
     let mut rx = fault_channel().subscribe();
     loop {
         if let Some(why) = rx.borrow_and_update().clone() {

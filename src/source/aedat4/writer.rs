@@ -136,13 +136,15 @@ impl<W: Write + Seek> Aedat4Writer<W> {
                 what: "AEDAT 4.0 packet",
                 reason: format!("{} bytes exceed the 32-bit size field", self.packed.len()),
             })?;
+        // Header and body leave in one write: a process killed between two writes
+        // would leave a header without its body.
         let mut packet_header = [0u8; 8];
         packet_header[4..].copy_from_slice(&body_bytes.to_le_bytes());
-        let write = |output: &mut W| {
-            output.write_all(&packet_header)?;
-            output.write_all(&self.packed)
-        };
-        write(&mut self.output).map_err(|e| SourceError::write_io(e, self.written_bytes))?;
+        self.packed.splice(0..0, packet_header);
+        self.output
+            .write_all(&self.packed)
+            .map_err(|e| SourceError::write_io(e, self.written_bytes))?;
+        self.packed.drain(..8);
         self.table.push(DataTableEntry {
             body_at_bytes: (self.written_bytes + 8) as i64,
             stream_id: 0,
