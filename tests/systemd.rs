@@ -225,3 +225,23 @@ fn the_unit_keeps_its_security_exposure_low() {
     eprintln!("measured: systemd-analyze security exposure {score}");
     assert!(score <= 2.0, "exposure {score}:\n{text}");
 }
+
+/// Memory is capped far above what the daemon holds (the soak's figures) and above
+/// its largest bounded buffer, the recorder's queue.
+#[test]
+fn the_unit_caps_memory_above_the_bounded_queue() {
+    let unit = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/systemd/faithd.service"
+    ))
+    .unwrap();
+    let max_mib: u64 = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("MemoryMax="))
+        .and_then(|v| v.strip_suffix('M'))
+        .and_then(|v| v.parse().ok())
+        .expect("MemoryMax=<n>M in the unit");
+    let queue_mib = faithd::daemon::record::RecordConfig::default().max_queue_bytes >> 20;
+    assert!(max_mib >= 4 * queue_mib, "MemoryMax {max_mib} MiB");
+    assert!(max_mib <= 512, "MemoryMax {max_mib} MiB is no cap on a small board");
+}
