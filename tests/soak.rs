@@ -119,6 +119,9 @@ fn soak_for_an_hour() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(3600);
-    let samples = soak(Duration::from_secs(secs), Duration::from_secs(60.min(secs / 10).max(1)));
+    let samples = soak(
+        Duration::from_secs(secs),
+        Duration::from_secs(60.min(secs / 10).max(1)),
+    );
     assert_flat(&samples, 4 * 1024);
 }

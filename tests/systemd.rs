@@ -243,5 +243,8 @@ fn the_unit_caps_memory_above_the_bounded_queue() {
         .expect("MemoryMax=<n>M in the unit");
     let queue_mib = faithd::daemon::record::RecordConfig::default().max_queue_bytes >> 20;
     assert!(max_mib >= 4 * queue_mib, "MemoryMax {max_mib} MiB");
-    assert!(max_mib <= 512, "MemoryMax {max_mib} MiB is no cap on a small board");
+    assert!(
+        max_mib <= 512,
+        "MemoryMax {max_mib} MiB is no cap on a small board"
+    );
 }
