@@ -5,7 +5,7 @@
 //! clock, touches a file or a socket, or draws an unseeded random number, so any
 //! recorded flight replays to the same decisions bit for bit.
 //!
-//! Data flow (DESIGN.md): [`flow`] (normal flow from events) -> [`derotate`] ->
+//! Data flow (docs/design.md): [`flow`] (normal flow from events) -> [`derotate`] ->
 //! [`foe`] (FAITH and the baselines) -> [`ttc`] -> [`cluster`] (DBSCAN) -> [`decide`];
 //! [`pipeline`] runs them in order for one window.
 

@@ -53,7 +53,8 @@ pub fn plan(runs: usize, seed: u64) -> Vec<FlightSpec> {
         .collect()
 }
 
-/// The experiment's figures. Key names are published (DESIGN.md): add, never rename.
+/// The experiment's figures. Key names are published (docs/design.md, Commands): add,
+/// never rename.
 #[derive(Clone, Debug, Serialize)]
 pub struct SimSummary {
     pub runs: usize,

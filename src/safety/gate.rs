@@ -1,9 +1,9 @@
 //! The pilot's safety gate: may faithd command the vehicle right now?
 //!
-//! DESIGN.md's rule, checked in a fixed order so the log always names the same first
-//! reason for the same situation: the link is up, the pilot's switch is in AUTO, the
-//! vehicle is armed, RC, heartbeat and attitude data are fresh, and the pipeline is
-//! healthy. Pure: the caller passes the time.
+//! The rule of docs/design.md, checked in a fixed order so the log always names the
+//! same first reason for the same situation: the link is up, the pilot's switch is in
+//! AUTO, the vehicle is armed, RC, heartbeat and attitude data are fresh, and the
+//! pipeline is healthy. Pure: the caller passes the time.
 
 use serde::{Deserialize, Serialize};
 
