@@ -69,7 +69,7 @@ pub fn run(seed: u64, window_us: i64, clock: &mut dyn StageClock) -> DemoSummary
     let mut window_end_us = window_us;
     let last_us = events.last().map_or(0, |e| e.t_us);
     while window_end_us <= last_us + window_us {
-        let stop = start + events[start..].partition_point(|e| e.t_us < window_end_us);
+        let stop = start + crate::window::events_until(&events[start..], window_end_us);
         let report = pipeline.process_window(&events[start..stop], &attitude, window_end_us, clock);
         start = stop;
         summary.windows += 1;

@@ -32,4 +32,5 @@ pub mod sim;
 pub mod source;
 pub mod synth;
 pub mod ttc;
+pub mod window;
 pub mod window_log;

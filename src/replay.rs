@@ -232,12 +232,12 @@ pub fn replay(
         // Process every window whose end the data has passed (or all, at the end).
         loop {
             let end_us = window_end_us.expect("set above");
-            let data_passed = pending.last().is_some_and(|e| e.t_us >= end_us);
+            let data_passed = pending.last().is_some_and(|e| e.t_us > end_us);
             // Wait for more data unless it already passed the window end or has ended.
             if pending.is_empty() || (!data_passed && more) {
                 break;
             }
-            let take = pending.partition_point(|e| e.t_us < end_us);
+            let take = crate::window::events_until(&pending, end_us);
             let report = pipeline.process_window(&pending[..take], &samples, end_us, &mut NoClock);
             let line = WindowLine::from_report(end_us, take, &report);
             pending.drain(..take);

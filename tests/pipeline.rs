@@ -34,7 +34,7 @@ fn run_windows<T>(
     let mut start = 0;
     let mut window_end_us = WINDOW_US;
     while window_end_us <= end_us + WINDOW_US {
-        let stop = start + events[start..].partition_point(|e| e.t_us < window_end_us);
+        let stop = start + faithd::window::events_until(&events[start..], window_end_us);
         let att: Vec<_> = attitude
             .iter()
             .copied()

@@ -106,7 +106,7 @@ fn aedat4_and_text_replay_to_the_pipelines_own_decisions_every_time() {
     let mut end = ev[0].t_us + 10_000;
     let mut start = 0;
     while start < ev.len() {
-        let stop = start + ev[start..].partition_point(|e| e.t_us < end);
+        let stop = start + faithd::window::events_until(&ev[start..], end);
         let r = pipeline.process_window(&ev[start..stop], &attitude, end, &mut NoClock);
         direct.push(serde_json::to_value(r.decision).unwrap());
         start = stop;

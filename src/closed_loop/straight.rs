@@ -83,10 +83,11 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
         if t_us % WINDOW_US != 0 {
             continue;
         }
+        let take = crate::window::events_until(&pending, t_us);
         let decision = pipeline
-            .process_window(&pending, &attitude, t_us, &mut NoClock)
+            .process_window(&pending[..take], &attitude, t_us, &mut NoClock)
             .decision;
-        pending.clear();
+        pending.drain(..take);
         let gate_open = spec.pilot_auto && t_us >= auto_us;
         if gate_open && matches!(decision.action, Action::Roll { .. }) {
             roll = Some(StraightRoll {

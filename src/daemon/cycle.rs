@@ -124,7 +124,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
         }
         let started_us = clock.now_us();
         let window_end_us = started_us;
-        let take = pending.partition_point(|e| e.t_us <= window_end_us);
+        let take = crate::window::events_until(&pending, window_end_us);
         io.attitude
             .lock()
             .expect("attitude log lock")
