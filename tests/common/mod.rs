@@ -464,24 +464,16 @@ pub struct Daemon {
     _dir: TempDir,
 }
 
-pub struct TempDir(pub PathBuf);
+/// A scratch directory (the `tempfile` crate), removed when dropped; `.0` is its path.
+pub struct TempDir(pub PathBuf, #[allow(dead_code)] tempfile::TempDir);
 
 impl TempDir {
     pub fn new(tag: &str) -> Self {
-        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let dir = std::env::temp_dir().join(format!(
-            "faithd-test-{tag}-{}-{}",
-            std::process::id(),
-            NEXT.fetch_add(1, Ordering::Relaxed)
-        ));
-        std::fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
+        let dir = tempfile::Builder::new()
+            .prefix(&format!("faithd-test-{tag}-"))
+            .tempdir()
+            .expect("a scratch directory");
+        TempDir(dir.path().to_path_buf(), dir)
     }
 }
 
