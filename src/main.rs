@@ -44,7 +44,7 @@ fn closed_loop_demo(
         Ok(o) => o,
         Err(e) => {
             eprintln!("error: cannot fly the demo: {e}");
-            return ExitCode::FAILURE;
+            return Exit::Failed.into();
         }
     };
     if let Some(dir) = plot.parent() {
@@ -88,7 +88,7 @@ fn closed_loop_demo(
             Err(e) => println!("  trajectory not drawn: {e}"),
         }
     }
-    ExitCode::SUCCESS
+    Exit::Ok.into()
 }
 
 fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
@@ -132,7 +132,7 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
             }
             Err(e) => {
                 eprintln!("error: flight {} failed to run: {e}", i + 1);
-                return ExitCode::FAILURE;
+                return Exit::Failed.into();
             }
         }
     }
@@ -169,7 +169,7 @@ fn sim(runs: usize, seed: u64, json: bool) -> ExitCode {
             summary.ttc_at_decision_s_p50
         );
     }
-    ExitCode::SUCCESS
+    Exit::Ok.into()
 }
 
 fn sim_straight(runs: usize, seed: u64, config: Option<&std::path::Path>, json: bool) -> ExitCode {
@@ -178,7 +178,7 @@ fn sim_straight(runs: usize, seed: u64, config: Option<&std::path::Path>, json: 
         Ok(c) => c.unwrap_or_default().pipeline,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return Exit::Refused.into();
         }
     };
     let specs = experiment::plan(runs, seed);
@@ -222,14 +222,10 @@ fn sim_straight(runs: usize, seed: u64, config: Option<&std::path::Path>, json: 
             100.0 * s.false_avoidances as f64 / s.near_passes.max(1) as f64
         );
     }
-    ExitCode::SUCCESS
+    Exit::Ok.into()
 }
 
 fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
-    if window_us <= 0 {
-        eprintln!("error: --window-us must be positive, got {window_us}");
-        return ExitCode::from(2);
-    }
     let summary = faithd::demo::run(
         seed,
         window_us,
@@ -240,7 +236,7 @@ fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
             "{}",
             serde_json::to_string(&summary).expect("summary serialises")
         );
-        return ExitCode::SUCCESS;
+        return Exit::Ok.into();
     }
     println!("faithd demo: open-loop approach to a pole (generated events, real pipeline)");
     println!(
@@ -276,7 +272,27 @@ fn demo(seed: u64, window_us: i64, json: bool) -> ExitCode {
         "  per stage (mean us): flow {:.0}, derotation {:.0}, FOE {:.0}, TTC {:.0}, clustering {:.0}, decision {:.0}",
         s[0], s[1], s[2], s[3], s[4], s[5]
     );
-    ExitCode::SUCCESS
+    Exit::Ok.into()
+}
+
+/// faithd's exit statuses (docs/design.md, Commands): scripts and the systemd unit
+/// read them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Exit {
+    Ok = 0,
+    /// Could not do the job: a fault, a task that ended, an I/O error on output.
+    Failed = 1,
+    /// Refused: bad configuration or input, a missing library, a camera that does
+    /// not match the configuration. The unit does not restart on it.
+    Refused = 2,
+    /// A replay whose windows decide otherwise than the flight did.
+    Differs = 3,
+}
+
+impl From<Exit> for ExitCode {
+    fn from(exit: Exit) -> Self {
+        ExitCode::from(exit as u8)
+    }
 }
 
 #[derive(Parser)]
@@ -302,7 +318,7 @@ enum Command {
         #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
         offset_m: f64,
         /// Keep the pilot's switch in MANUAL: faithd must not act (the vehicle hits).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "open_loop")]
         manual: bool,
         /// Print the outcome as one JSON object.
         #[arg(long)]
@@ -311,10 +327,12 @@ enum Command {
         #[arg(long, default_value = "out/demo/flight.png")]
         plot: PathBuf,
         /// Instead: the pipeline alone, open loop, on generated events (stage timings).
-        #[arg(long)]
+        /// The closed loop's course, switch and plot do not apply to it.
+        #[arg(long, conflicts_with_all = ["offset_m", "manual", "plot"])]
         open_loop: bool,
         /// Open loop only: decision period, microseconds.
-        #[arg(long, default_value_t = 10_000)]
+        #[arg(long, default_value_t = 10_000, requires = "open_loop",
+              value_parser = clap::value_parser!(i64).range(1_000..=1_000_000))]
         window_us: i64,
     },
     /// The closed-loop avoidance experiment: many flights, success and false-avoidance rates.
@@ -369,7 +387,7 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
         /// Window (decision period), microseconds; default daemon.period_us.
-        #[arg(long)]
+        #[arg(long, value_parser = clap::value_parser!(i64).range(1..))]
         window_us: Option<i64>,
         /// The window log of a daemon recording (`*.windows.jsonl`): replay its windows
         /// exactly as the daemon ran them (window ends, event counts, load shedding,
@@ -407,8 +425,8 @@ enum BenchCommand {
     /// Table I of the paper: all four FOE methods on simulated flights.
     Foe {
         /// Number of simulated trajectories.
-        #[arg(long, default_value_t = 100)]
-        trajectories: usize,
+        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
+        trajectories: u32,
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Print one JSON object instead of the table.
@@ -427,17 +445,14 @@ enum BenchCommand {
 }
 
 fn bench_foe(
-    trajectories: usize,
+    trajectories: u32,
     seed: u64,
     json: bool,
     threads: Option<usize>,
     plot_dir: &std::path::Path,
     rotation: bool,
 ) -> ExitCode {
-    if trajectories == 0 {
-        eprintln!("error: --trajectories must be at least 1");
-        return ExitCode::from(2);
-    }
+    let trajectories = trajectories as usize;
     let mut options = faithd::bench::foe::BenchFoeOptions {
         trajectories,
         seed,
@@ -470,9 +485,9 @@ fn bench_foe(
     }
     if let Err(e) = write_bench_figures(&report, plot_dir) {
         eprintln!("error: {e}");
-        return ExitCode::from(1);
+        return Exit::Failed.into();
     }
-    ExitCode::SUCCESS
+    Exit::Ok.into()
 }
 
 fn write_bench_figures(
@@ -514,14 +529,11 @@ fn replay(
         Ok(c) => c.unwrap_or_default(),
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return Exit::Refused.into();
         }
     };
+    // The command line and the config checks both keep this positive.
     let window_us = window_us.unwrap_or(config.daemon.period_us);
-    if window_us <= 0 {
-        eprintln!("error: --window-us must be positive, got {window_us}");
-        return ExitCode::from(2);
-    }
     let attitude = match (mavlink, imu) {
         (Some(path), _) => AttitudeInput::Tlog {
             path,
@@ -536,11 +548,11 @@ fn replay(
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     match faithd::replay::replay(events, attitude, config.pipeline, window_us, json, &mut out) {
-        Ok(_) => ExitCode::SUCCESS,
+        Ok(_) => Exit::Ok.into(),
         Err(e) => {
             let _ = std::io::Write::flush(&mut out);
             eprintln!("error: {e}");
-            ExitCode::from(2)
+            Exit::Refused.into()
         }
     }
 }
@@ -556,7 +568,7 @@ fn replay_window_log(
         Ok(c) => c.map(|c| c.pipeline),
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return Exit::Refused.into();
         }
     };
     if mavlink.is_none() {
@@ -572,7 +584,7 @@ fn replay_window_log(
                 "replayed {} windows: every one as decided in flight",
                 r.windows
             );
-            ExitCode::SUCCESS
+            Exit::Ok.into()
         }
         Ok(r) => {
             let (t_us, why) = r.first_difference.unwrap_or_default();
@@ -580,11 +592,11 @@ fn replay_window_log(
                 "replayed {} windows: {} differ from the flight; the first at {t_us} us ({why})",
                 r.windows, r.differing
             );
-            ExitCode::from(3)
+            Exit::Differs.into()
         }
         Err(e) => {
             eprintln!("error: {e}");
-            ExitCode::from(2)
+            Exit::Refused.into()
         }
     }
 }
@@ -594,18 +606,18 @@ fn run(path: &std::path::Path, options: faithd::daemon::RunOptions) -> ExitCode 
         Ok(c) => c,
         Err(e) => {
             tracing::error!("refusing to start: {e}");
-            return ExitCode::from(2);
+            return Exit::Refused.into();
         }
     };
     match faithd::daemon::run(config, options) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => Exit::Ok.into(),
         Err(e @ faithd::daemon::DaemonError::Config { .. }) => {
             tracing::error!("refusing to start: {e}");
-            ExitCode::from(2)
+            Exit::Refused.into()
         }
         Err(e) => {
             tracing::error!("{e}");
-            ExitCode::FAILURE
+            Exit::Failed.into()
         }
     }
 }
@@ -616,7 +628,7 @@ fn check_fc(path: &std::path::Path, json: bool) -> ExitCode {
         Ok(c) => c,
         Err(e) => {
             eprintln!("error: {e}");
-            return ExitCode::from(2);
+            return Exit::Refused.into();
         }
     };
     let report = match fc_check::check_over_msp(&config) {
@@ -626,7 +638,7 @@ fn check_fc(path: &std::path::Path, json: bool) -> ExitCode {
                 "error: cannot read the flight controller on {}: {e}",
                 config.command.msp_endpoint
             );
-            return ExitCode::FAILURE;
+            return Exit::Failed.into();
         }
     };
     if json {
@@ -671,9 +683,9 @@ fn check_fc(path: &std::path::Path, json: bool) -> ExitCode {
         }
     }
     if report.route.is_some() {
-        ExitCode::SUCCESS
+        Exit::Ok.into()
     } else {
-        ExitCode::from(2)
+        Exit::Refused.into()
     }
 }
 
@@ -759,11 +771,11 @@ fn main() -> ExitCode {
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
             Ok(_) => {
                 println!("{}: ok", path.display());
-                ExitCode::SUCCESS
+                Exit::Ok.into()
             }
             Err(e) => {
                 eprintln!("error: {e}");
-                ExitCode::from(2)
+                Exit::Refused.into()
             }
         },
     }
