@@ -73,9 +73,11 @@ pub struct CycleIo {
     /// read yet (it only acts on fresh decisions), so none is ever refused.
     pub decisions: watch::Sender<Option<RollDecision>>,
     pub recorder: Option<super::record::Recorder>,
+    /// Set when the daemon stops: the thread ends at its next period.
+    pub stop: Arc<std::sync::atomic::AtomicBool>,
 }
 
-/// Runs until the event source hangs up.
+/// Runs until the event source hangs up or `io.stop` is set.
 pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonClock, io: CycleIo) {
     let mut pipeline = Pipeline::new(pipeline_config);
     let mut shedder = Shedder::new(
@@ -98,6 +100,9 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
     let mut foe_iterations = pipeline_config.faith.iterations;
     let mut overrun_log = Throttle::new(LOG_EVERY_US);
     loop {
+        if io.stop.load(std::sync::atomic::Ordering::Acquire) {
+            return;
+        }
         // Wait for the period's end, taking batches as they come.
         loop {
             let now = clock.now_us();

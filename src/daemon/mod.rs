@@ -252,7 +252,7 @@ pub async fn serve(
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
     // faithd sends only its own HEARTBEAT on the MAVLink link; nothing else queues.
     let (_mav_out_tx, mav_out_rx) = mpsc::channel(1);
-    tokio::spawn(link::run(
+    let link_task = tokio::spawn(link::run(
         config.mavlink.clone(),
         endpoint,
         clock,
@@ -268,13 +268,15 @@ pub async fn serve(
     let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
     let (decision_tx, decision_rx) = watch::channel(None);
     let (batch_tx, batch_rx) = std::sync::mpsc::sync_channel(256);
-    std::thread::Builder::new()
+    let source_thread = std::thread::Builder::new()
         .name("faithd-source".into())
         .spawn(move || source(clock, batch_tx))
         .expect("spawn source thread");
     let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
     let cycle_recorder = recorder.clone();
-    std::thread::Builder::new()
+    let stop_pipeline = Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop = stop_pipeline.clone();
+    let pipeline_thread = std::thread::Builder::new()
         .name("faithd-pipeline".into())
         .spawn(move || {
             cycle::run(
@@ -287,6 +289,7 @@ pub async fn serve(
                     status: status_tx,
                     decisions: decision_tx,
                     recorder: cycle_recorder,
+                    stop,
                 },
             )
         })
@@ -299,9 +302,9 @@ pub async fn serve(
         supervisor.register("MSP roll stream"),
     );
     let commander_beat = supervisor.register("commander");
-    tokio::spawn(report_dropped_log_lines());
+    let log_task = tokio::spawn(report_dropped_log_lines());
 
-    tokio::spawn(systemd_notifier(
+    let notifier_task = tokio::spawn(systemd_notifier(
         clock,
         vehicle_rx.clone(),
         status_rx.clone(),
@@ -342,6 +345,28 @@ pub async fn serve(
     release_on_exit(&stream, &msp_endpoint, &config.manoeuvre).await;
     if let Some(r) = &recorder {
         r.finish().await;
+    }
+    // Every task and thread is ended and joined before `serve` returns: the
+    // background tasks are cancelled, the pipeline is told to stop, and the camera
+    // thread ends when the pipeline's end of its channel is gone.
+    for task in [link_task, log_task, notifier_task] {
+        task.abort();
+        let _ = task.await;
+    }
+    stop_pipeline.store(true, std::sync::atomic::Ordering::Release);
+    let threads = [("pipeline", pipeline_thread), ("camera", source_thread)];
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
+    while threads.iter().any(|(_, t)| !t.is_finished()) && tokio::time::Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    for (name, thread) in threads {
+        if thread.is_finished() {
+            let _ = thread.join();
+        } else {
+            tracing::warn!(
+                "the {name} thread did not end within 1 s (blocked in a device?); not waited for"
+            );
+        }
     }
     tracing::info!("faithd stopped");
     ended
