@@ -10,10 +10,10 @@ use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use mavlink::dialects::common::*;
-use mavlink::{MavHeader, MavlinkVersion};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
 
+use super::inav_mavlink::{self, encode};
 use super::inav_msp::{FcView, InavMsp, Setup};
 use super::physics::Shared;
 use crate::daemon::clock::DaemonClock;
@@ -47,7 +47,7 @@ pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
                     encode(&mut out, &mut seq, &msg);
                 }
                 if n.is_multiple_of(25) {
-                    encode(&mut out, &mut seq, &heartbeat());
+                    encode(&mut out, &mut seq, &inav_mavlink::heartbeat(true, MavState::MAV_STATE_ACTIVE));
                 }
                 n += 1;
                 let _ = socket.send_to(&out, to).await;
@@ -140,41 +140,5 @@ fn boot_ms(clock: &DaemonClock) -> u32 {
 }
 
 fn rc_channels(clock: &DaemonClock, roll_us: u16, switch_us: u16) -> MavMessage {
-    MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
-        time_boot_ms: boot_ms(clock),
-        chan1_raw: roll_us,
-        chan2_raw: 1500,
-        chan3_raw: 1450,
-        chan4_raw: 1500,
-        chan5_raw: 1900,
-        chan6_raw: switch_us,
-        chan7_raw: 1000,
-        chan8_raw: 1000,
-        chancount: 8,
-        rssi: 255,
-        ..Default::default()
-    })
-}
-
-fn heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: MavType::MAV_TYPE_QUADROTOR,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED
-            | MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-        system_status: MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
-    })
-}
-
-fn encode(out: &mut Vec<u8>, seq: &mut u8, msg: &MavMessage) {
-    let header = MavHeader {
-        system_id: 1,
-        component_id: 1,
-        sequence: *seq,
-    };
-    *seq = seq.wrapping_add(1);
-    // Writing to a Vec cannot fail.
-    let _ = mavlink::write_versioned_msg(out, MavlinkVersion::V2, header, msg);
+    inav_mavlink::rc_channels(boot_ms(clock), rc_in_use(roll_us, switch_us), 255)
 }

@@ -5,6 +5,7 @@
 
 pub mod autopilot;
 pub mod experiment;
+pub mod inav_mavlink;
 pub mod inav_msp;
 pub mod physics;
 pub mod plot;

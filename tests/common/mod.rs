@@ -16,8 +16,9 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use faithd::closed_loop::inav_mavlink;
+use mavlink::MavHeader;
 use mavlink::dialects::common::*;
-use mavlink::{MavHeader, MavlinkVersion};
 
 /// Polls `pred` every 5 ms until it holds or `timeout` passes; its last answer.
 pub fn poll_until(timeout: Duration, mut pred: impl FnMut() -> bool) -> bool {
@@ -147,14 +148,28 @@ impl Read for ChunkReader {
 }
 
 fn encode(seq: u8, msg: &MavMessage) -> Vec<u8> {
-    let mut out = Vec::new();
-    let header = MavHeader {
-        system_id: 1,
-        component_id: 1,
-        sequence: seq,
-    };
-    mavlink::write_versioned_msg(&mut out, MavlinkVersion::V2, header, msg).unwrap();
+    let (mut out, mut seq) = (Vec::new(), seq);
+    inav_mavlink::encode(&mut out, &mut seq, msg);
     out
+}
+
+/// RC_CHANNELS of the mock: the pilot's throttle at 1400, the switch on channel 6.
+fn rc_channels(boot_ms: u32, switch_us: u16, roll_us: u16) -> MavMessage {
+    inav_mavlink::rc_channels(
+        boot_ms,
+        [roll_us, 1500, 1400, 1500, 1900, switch_us, 1000, 1000],
+        200,
+    )
+}
+
+/// HEARTBEAT with the MAV_STATE number the test sets (5 CRITICAL: iNav's failsafe).
+fn heartbeat(armed: bool, system_status: u8) -> MavMessage {
+    let state = match system_status {
+        5 => MavState::MAV_STATE_CRITICAL,
+        6 => MavState::MAV_STATE_EMERGENCY,
+        _ => MavState::MAV_STATE_ACTIVE,
+    };
+    inav_mavlink::heartbeat(armed, state)
 }
 
 impl MockAutopilot {
@@ -249,7 +264,9 @@ impl MockAutopilot {
                         seq = seq.wrapping_add(1);
                         out.extend(encode(
                             seq,
-                            &sys_status(controls.radio_healthy.load(Ordering::Relaxed)),
+                            &inav_mavlink::sys_status(
+                                controls.radio_healthy.load(Ordering::Relaxed),
+                            ),
                         ));
                         seq = seq.wrapping_add(1);
                     }
@@ -385,55 +402,6 @@ fn attitude(boot_ms: u32) -> MavMessage {
         rollspeed: 0.0,
         pitchspeed: 0.0,
         yawspeed: 0.0,
-    })
-}
-
-fn rc_channels(boot_ms: u32, switch_us: u16, roll_us: u16) -> MavMessage {
-    MavMessage::RC_CHANNELS(RC_CHANNELS_DATA {
-        time_boot_ms: boot_ms,
-        chan1_raw: roll_us,
-        chan2_raw: 1500,
-        chan3_raw: 1400,
-        chan4_raw: 1500,
-        chan5_raw: 1900,
-        chan6_raw: switch_us,
-        chan7_raw: 1000,
-        chan8_raw: 1000,
-        chancount: 8,
-        rssi: 200,
-        ..Default::default()
-    })
-}
-
-fn heartbeat(armed: bool, system_status: u8) -> MavMessage {
-    let mut base_mode = MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
-    if armed {
-        base_mode |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
-    }
-    MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: MavType::MAV_TYPE_QUADROTOR,
-        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
-        base_mode,
-        system_status: match system_status {
-            5 => MavState::MAV_STATE_CRITICAL,
-            6 => MavState::MAV_STATE_EMERGENCY,
-            _ => MavState::MAV_STATE_ACTIVE,
-        },
-        mavlink_version: 3,
-    })
-}
-
-/// SYS_STATUS as iNav sends it: the RC receiver present and enabled, healthy while
-/// the pilot's frames arrive.
-fn sys_status(radio_healthy: bool) -> MavMessage {
-    let rc = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_RC_RECEIVER;
-    let gyro = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO;
-    MavMessage::SYS_STATUS(SYS_STATUS_DATA {
-        onboard_control_sensors_present: rc | gyro,
-        onboard_control_sensors_enabled: rc | gyro,
-        onboard_control_sensors_health: if radio_healthy { rc | gyro } else { gyro },
-        ..Default::default()
     })
 }
 
