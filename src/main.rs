@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{Args, Parser, Subcommand};
 
 use faithd::config::FaithdConfig;
 use faithd::pipeline::StageClock;
@@ -17,13 +17,9 @@ impl StageClock for MonotonicClock {
     }
 }
 
-fn closed_loop_demo(
-    seed: u64,
-    offset_m: f64,
-    manual: bool,
-    json: bool,
-    plot: &std::path::Path,
-) -> ExitCode {
+fn closed_loop_demo(args: &DemoArgs) -> ExitCode {
+    let (seed, offset_m, manual, json) = (args.seed, args.offset_m, args.manual, args.json);
+    let plot = args.plot.as_path();
     let spec = faithd::closed_loop::FlightSpec {
         lateral_offset_m: offset_m,
         pilot_auto: !manual,
@@ -310,31 +306,7 @@ struct Cli {
 enum Command {
     /// The main job, no hardware: the daemon flies a simulated quadrotor at a pole
     /// against a simulated iNav over MAVLink, in closed loop and real time.
-    Demo {
-        /// Seed of the scene and of FAITH's draws.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Where the course passes the pole: metres right (+) or left (-) of its centre.
-        #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
-        offset_m: f64,
-        /// Keep the pilot's switch in MANUAL: faithd must not act (the vehicle hits).
-        #[arg(long, conflicts_with = "open_loop")]
-        manual: bool,
-        /// Print the outcome as one JSON object.
-        #[arg(long)]
-        json: bool,
-        /// Where to draw the trajectory.
-        #[arg(long, default_value = "out/demo/flight.png")]
-        plot: PathBuf,
-        /// Instead: the pipeline alone, open loop, on generated events (stage timings).
-        /// The closed loop's course, switch and plot do not apply to it.
-        #[arg(long, conflicts_with_all = ["offset_m", "manual", "plot"])]
-        open_loop: bool,
-        /// Open loop only: decision period, microseconds.
-        #[arg(long, default_value_t = 10_000, requires = "open_loop",
-              value_parser = clap::value_parser!(i64).range(1_000..=1_000_000))]
-        window_us: i64,
-    },
+    Demo(DemoArgs),
     /// The closed-loop avoidance experiment: many flights, success and false-avoidance rates.
     Sim {
         #[arg(long, default_value_t = 100)]
@@ -370,36 +342,7 @@ enum Command {
         simulated_camera: bool,
     },
     /// Recorded events (and attitude) through the same pipeline: one line per window.
-    Replay {
-        /// Event file: AEDAT 4.0, 3.1, 2.0 or the datasets' text format.
-        #[arg(long)]
-        events: PathBuf,
-        /// Attitude from a MAVLink telemetry log (ATTITUDE messages).
-        #[arg(long, conflicts_with = "imu")]
-        mavlink: Option<PathBuf>,
-        /// Added to ATTITUDE's time_boot_ms (in us) to reach the events' clock.
-        #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
-        attitude_offset_us: i64,
-        /// Attitude from a text dataset's imu.txt.
-        #[arg(long)]
-        imu: Option<PathBuf>,
-        /// Pipeline settings (default: the built-in defaults).
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Window (decision period), microseconds; default daemon.period_us.
-        #[arg(long, value_parser = clap::value_parser!(i64).range(1..))]
-        window_us: Option<i64>,
-        /// The window log of a daemon recording (`*.windows.jsonl`): replay its windows
-        /// exactly as the daemon ran them (window ends, event counts, load shedding,
-        /// logged pipeline settings unless --config), put the .tlog on the daemon clock
-        /// by itself, and check every window against the live decision (exit 3 if any
-        /// differs).
-        #[arg(long, conflicts_with_all = ["imu", "window_us", "attitude_offset_us"])]
-        windows: Option<PathBuf>,
-        /// One JSON object per window.
-        #[arg(long)]
-        json: bool,
-    },
+    Replay(ReplayArgs),
     /// Validate a config file: prints `ok` or the key and the reason it is refused.
     CheckConfig {
         /// Path to faithd.toml.
@@ -423,36 +366,96 @@ enum Command {
 #[derive(Subcommand)]
 enum BenchCommand {
     /// Table I of the paper: all four FOE methods on simulated flights.
-    Foe {
-        /// Number of simulated trajectories.
-        #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
-        trajectories: u32,
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Print one JSON object instead of the table.
-        #[arg(long)]
-        json: bool,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Directory for the figures (foe_errors.png, foe_frame.png).
-        #[arg(long, default_value = "out/bench-foe")]
-        plot_dir: PathBuf,
-        /// Also fly every third trajectory with body rotation (exercises derotation).
-        #[arg(long)]
-        rotation: bool,
-    },
+    Foe(BenchFoeArgs),
 }
 
-fn bench_foe(
-    trajectories: u32,
+/// `faithd demo`: the closed loop by default, or the pipeline alone (`--open-loop`).
+#[derive(Args)]
+struct DemoArgs {
+    /// Seed of the scene and of FAITH's draws.
+    #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Where the course passes the pole: metres right (+) or left (-) of its centre.
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    offset_m: f64,
+    /// Keep the pilot's switch in MANUAL: faithd must not act (the vehicle hits).
+    #[arg(long, conflicts_with = "open_loop")]
+    manual: bool,
+    /// Print the outcome as one JSON object.
+    #[arg(long)]
     json: bool,
+    /// Where to draw the trajectory.
+    #[arg(long, default_value = "out/demo/flight.png")]
+    plot: PathBuf,
+    /// Instead: the pipeline alone, open loop, on generated events (stage timings).
+    /// The closed loop's course, switch and plot do not apply to it.
+    #[arg(long, conflicts_with_all = ["offset_m", "manual", "plot"])]
+    open_loop: bool,
+    /// Open loop only: decision period, microseconds.
+    #[arg(long, default_value_t = 10_000, requires = "open_loop",
+          value_parser = clap::value_parser!(i64).range(1_000..=1_000_000))]
+    window_us: i64,
+}
+
+/// `faithd replay`: a recording through the pipeline, or a daemon recording checked
+/// window by window against its flight (`--windows`).
+#[derive(Args)]
+struct ReplayArgs {
+    /// Event file: AEDAT 4.0, 3.1, 2.0 or the datasets' text format.
+    #[arg(long)]
+    events: PathBuf,
+    /// Attitude from a MAVLink telemetry log (ATTITUDE messages).
+    #[arg(long, conflicts_with = "imu")]
+    mavlink: Option<PathBuf>,
+    /// Added to ATTITUDE's time_boot_ms (in us) to reach the events' clock.
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    attitude_offset_us: i64,
+    /// Attitude from a text dataset's imu.txt.
+    #[arg(long)]
+    imu: Option<PathBuf>,
+    /// Pipeline settings (default: the built-in defaults).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Window (decision period), microseconds; default daemon.period_us.
+    #[arg(long, value_parser = clap::value_parser!(i64).range(1..))]
+    window_us: Option<i64>,
+    /// The window log of a daemon recording (`*.windows.jsonl`): replay its windows
+    /// exactly as the daemon ran them (window ends, event counts, load shedding,
+    /// logged pipeline settings unless --config), put the .tlog on the daemon clock
+    /// by itself, and check every window against the live decision (exit 3 if any
+    /// differs).
+    #[arg(long, conflicts_with_all = ["imu", "window_us", "attitude_offset_us"])]
+    windows: Option<PathBuf>,
+    /// One JSON object per window.
+    #[arg(long)]
+    json: bool,
+}
+
+/// `faithd bench foe`.
+#[derive(Args)]
+struct BenchFoeArgs {
+    /// Number of simulated trajectories.
+    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
+    trajectories: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print one JSON object instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
     threads: Option<usize>,
-    plot_dir: &std::path::Path,
+    /// Directory for the figures (foe_errors.png, foe_frame.png).
+    #[arg(long, default_value = "out/bench-foe")]
+    plot_dir: PathBuf,
+    /// Also fly every third trajectory with body rotation (exercises derotation).
+    #[arg(long)]
     rotation: bool,
-) -> ExitCode {
-    let trajectories = trajectories as usize;
+}
+
+fn bench_foe(args: &BenchFoeArgs) -> ExitCode {
+    let (trajectories, seed, json) = (args.trajectories as usize, args.seed, args.json);
+    let (threads, plot_dir, rotation) = (args.threads, args.plot_dir.as_path(), args.rotation);
     let mut options = faithd::bench::foe::BenchFoeOptions {
         trajectories,
         seed,
@@ -515,15 +518,18 @@ fn roll_ttc_s(o: &faithd::closed_loop::FlightOutcome) -> Option<(f64, f64)> {
     Some((measured, o.ttc_at_decision_s?))
 }
 
-fn replay(
-    events: &std::path::Path,
-    mavlink: Option<&std::path::Path>,
-    attitude_offset_us: i64,
-    imu: Option<&std::path::Path>,
-    config: Option<&std::path::Path>,
-    window_us: Option<i64>,
-    json: bool,
-) -> ExitCode {
+fn replay(args: &ReplayArgs) -> ExitCode {
+    let (events, mavlink, imu) = (
+        args.events.as_path(),
+        args.mavlink.as_deref(),
+        args.imu.as_deref(),
+    );
+    let (attitude_offset_us, config, window_us, json) = (
+        args.attitude_offset_us,
+        args.config.as_deref(),
+        args.window_us,
+        args.json,
+    );
     use faithd::replay::AttitudeInput;
     let config = match config.map(FaithdConfig::load).transpose() {
         Ok(c) => c.unwrap_or_default(),
@@ -557,13 +563,9 @@ fn replay(
     }
 }
 
-fn replay_window_log(
-    events: &std::path::Path,
-    mavlink: Option<&std::path::Path>,
-    log: &std::path::Path,
-    config: Option<&std::path::Path>,
-    json: bool,
-) -> ExitCode {
+fn replay_window_log(args: &ReplayArgs, log: &std::path::Path) -> ExitCode {
+    let (events, mavlink) = (args.events.as_path(), args.mavlink.as_deref());
+    let (config, json) = (args.config.as_deref(), args.json);
     let pipeline = match config.map(FaithdConfig::load).transpose() {
         Ok(c) => c.map(|c| c.pipeline),
         Err(e) => {
@@ -695,24 +697,16 @@ fn main() -> ExitCode {
     let default_filter = match cli.command {
         Command::Sim { .. } => "warn",
         // The demo shows the daemon's gate and manoeuvre lines, not every decision.
-        Command::Demo { .. } => "info,faithd::daemon::cycle=warn",
+        Command::Demo(_) => "info,faithd::daemon::cycle=warn",
         _ => "info",
     };
     let _log = faithd::logging::init(default_filter);
     match cli.command {
-        Command::Demo {
-            seed,
-            offset_m,
-            manual,
-            json,
-            plot,
-            open_loop,
-            window_us,
-        } => {
-            if open_loop {
-                demo(seed, window_us, json)
+        Command::Demo(args) => {
+            if args.open_loop {
+                demo(args.seed, args.window_us, args.json)
             } else {
-                closed_loop_demo(seed, offset_m, manual, json, &plot)
+                closed_loop_demo(&args)
             }
         }
         Command::Sim {
@@ -730,42 +724,15 @@ fn main() -> ExitCode {
             config,
         } => sim_straight(runs, seed, config.as_deref(), json),
         Command::Bench {
-            what:
-                BenchCommand::Foe {
-                    trajectories,
-                    seed,
-                    json,
-                    threads,
-                    plot_dir,
-                    rotation,
-                },
-        } => bench_foe(trajectories, seed, json, threads, &plot_dir, rotation),
+            what: BenchCommand::Foe(args),
+        } => bench_foe(&args),
         Command::Run {
             config,
             simulated_camera,
         } => run(&config, faithd::daemon::RunOptions { simulated_camera }),
-        Command::Replay {
-            events,
-            mavlink,
-            attitude_offset_us,
-            imu,
-            config,
-            window_us,
-            windows,
-            json,
-        } => match windows {
-            Some(log) => {
-                replay_window_log(&events, mavlink.as_deref(), &log, config.as_deref(), json)
-            }
-            None => replay(
-                &events,
-                mavlink.as_deref(),
-                attitude_offset_us,
-                imu.as_deref(),
-                config.as_deref(),
-                window_us,
-                json,
-            ),
+        Command::Replay(args) => match &args.windows {
+            Some(log) => replay_window_log(&args, log),
+            None => replay(&args),
         },
         Command::CheckFc { config, json } => check_fc(&config, json),
         Command::CheckConfig { path } => match FaithdConfig::load(&path) {
