@@ -167,13 +167,9 @@ fn a_time_beyond_any_clock_is_refused_not_looped_on() {
     assert!(started.elapsed() < std::time::Duration::from_secs(10));
 }
 
-/// A window log's header is a configuration like any other: the daemon's checks apply
-/// before a replay sizes anything from it.
-#[test]
-fn a_crafted_window_log_header_is_refused_before_it_allocates() {
-    let dir = common::TempDir::new("replay-crafted-log");
-    write_inputs(&dir.0);
-    let header = faithd::window_log::WindowLogHeader {
+/// The first line of a window log as the daemon writes it, with `pipeline`.
+fn log_header(pipeline: faithd::pipeline::PipelineConfig) -> faithd::window_log::WindowLogHeader {
+    faithd::window_log::WindowLogHeader {
         faithd_window_log: faithd::window_log::WINDOW_LOG_VERSION,
         faithd_version: "0.1.0".into(),
         clock_start_unix_us: 0,
@@ -182,11 +178,20 @@ fn a_crafted_window_log_header_is_refused_before_it_allocates() {
         autopilot_system_id: 1,
         autopilot_component_id: Some(1),
         clock_sync_window: 50,
-        pipeline: faithd::pipeline::PipelineConfig {
-            max_vectors: 1_000_000_000_000,
-            ..Default::default()
-        },
-    };
+        pipeline,
+    }
+}
+
+/// A window log's header is a configuration like any other: the daemon's checks apply
+/// before a replay sizes anything from it.
+#[test]
+fn a_crafted_window_log_header_is_refused_before_it_allocates() {
+    let dir = common::TempDir::new("replay-crafted-log");
+    write_inputs(&dir.0);
+    let header = log_header(faithd::pipeline::PipelineConfig {
+        max_vectors: 1_000_000_000_000,
+        ..Default::default()
+    });
     let log = dir.0.join("flight.windows.jsonl");
     std::fs::write(
         &log,
@@ -212,17 +217,7 @@ fn a_crafted_window_log_header_is_refused_before_it_allocates() {
 fn a_window_log_cut_short_by_a_kill_replays_up_to_its_last_whole_line() {
     let dir = common::TempDir::new("replay-torn-log");
     write_inputs(&dir.0);
-    let header = faithd::window_log::WindowLogHeader {
-        faithd_window_log: faithd::window_log::WINDOW_LOG_VERSION,
-        faithd_version: "0.1.0".into(),
-        clock_start_unix_us: 0,
-        own_system_id: 1,
-        own_component_id: 191,
-        autopilot_system_id: 1,
-        autopilot_component_id: Some(1),
-        clock_sync_window: 50,
-        pipeline: faithd::pipeline::PipelineConfig::default(),
-    };
+    let header = log_header(faithd::pipeline::PipelineConfig::default());
     let header = serde_json::to_string(&header).unwrap();
     let events = dir.0.join("flight.aedat4");
     let log = dir.0.join("flight.windows.jsonl");

@@ -10,10 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use common::{Controls, MockAutopilot};
-use faithd::config::FaithdConfig;
 use faithd::daemon::source::run_sim;
 use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve};
-use faithd::link::endpoint::Endpoint;
 
 /// Sets its flag when dropped: when the thread that owns it has ended.
 struct SetOnDrop(Arc<AtomicBool>);
@@ -27,15 +25,7 @@ impl Drop for SetOnDrop {
 #[test]
 fn a_requested_stop_joins_every_thread_before_serve_returns() {
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
-    let text = format!(
-        "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\n[record]\nenabled = false\n",
-        mock.slave_path.display(),
-        mock.command_toml()
-    );
-    let config = FaithdConfig::parse(&text).unwrap();
-    let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud).unwrap();
-    let msp_endpoint =
-        Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud).unwrap();
+    let (config, endpoint, msp_endpoint) = mock.serve_config("");
     let camera_ended = Arc::new(AtomicBool::new(false));
     let flag = camera_ended.clone();
     let (source_config, camera) = (config.source.clone(), config.pipeline.camera);

@@ -10,24 +10,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use common::{Controls, MockAutopilot, is_roll};
-use faithd::config::FaithdConfig;
 use faithd::daemon::source::run_sim;
 use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve, supervise};
-use faithd::link::endpoint::Endpoint;
 
 #[test]
 fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault() {
     supervise::install_panic_hook();
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
-    let text = format!(
-        "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nsim_first_approach_us = 600000\n[record]\nenabled = false\n",
-        mock.slave_path.display(),
-        mock.command_toml()
-    );
-    let config = FaithdConfig::parse(&text).unwrap();
-    let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud).unwrap();
-    let msp_endpoint =
-        Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud).unwrap();
+    let (config, endpoint, msp_endpoint) = mock.serve_config("sim_first_approach_us = 600000\n");
     // The camera thread forwards the simulated camera until told to panic.
     let panic_now = Arc::new(AtomicBool::new(false));
     let (source_config, camera) = (config.source.clone(), config.pipeline.camera);

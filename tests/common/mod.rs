@@ -341,6 +341,28 @@ impl MockAutopilot {
         )
     }
 
+    /// For `faithd::daemon::serve` in the test's own process: the config (simulated
+    /// camera with `source` TOML lines, no recording) and both endpoints on this mock.
+    pub fn serve_config(
+        &self,
+        source: &str,
+    ) -> (
+        faithd::config::FaithdConfig,
+        faithd::link::endpoint::Endpoint,
+        faithd::link::endpoint::Endpoint,
+    ) {
+        use faithd::link::endpoint::Endpoint;
+        let text = format!(
+            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\n{source}[record]\nenabled = false\n",
+            self.slave_path.display(),
+            self.command_toml()
+        );
+        let config = faithd::config::FaithdConfig::parse(&text).unwrap();
+        let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud).unwrap();
+        let msp = Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud).unwrap();
+        (config, endpoint, msp)
+    }
+
     /// The roll iNav used, by time: see [`MspMock::first_roll`].
     pub fn first_roll(&self) -> Option<Instant> {
         self.msp.first_roll()
