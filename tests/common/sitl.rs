@@ -76,12 +76,23 @@ pub fn executable() -> PathBuf {
 }
 
 /// Eight consecutive free TCP ports (SITL's UARTs), distinct for every SITL this
-/// process starts.
+/// process starts, and all below the kernel's ephemeral range: SITL binds a UART's
+/// port again each time it restarts after `save`, and a port in the ephemeral
+/// range can be taken in between by any outgoing connection on the machine (CI
+/// once lost UART5 that way: "Unable to bind socket").
 fn free_base_port() -> u16 {
+    const LOWEST: u16 = 10_000;
+    const STRIDE: u16 = 10;
     static NEXT: AtomicU16 = AtomicU16::new(0);
-    let start = 20_000 + (std::process::id() % 500) as u16 * 40;
+    let ephemeral_low = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<u16>().ok())
+        .unwrap_or(32_768);
+    let slots = (ephemeral_low.saturating_sub(LOWEST) / STRIDE).max(1);
+    let first_slot = (std::process::id() % u32::from(slots)) as u16;
     loop {
-        let base = start.wrapping_add(NEXT.fetch_add(10, Ordering::Relaxed) % 20_000);
+        let slot = (first_slot + NEXT.fetch_add(1, Ordering::Relaxed)) % slots;
+        let base = LOWEST + slot * STRIDE;
         let free = (base..base + 8).all(|p| {
             TcpListener::bind(("::", p)).is_ok() && TcpListener::bind(("0.0.0.0", p)).is_ok()
         });
