@@ -5,9 +5,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use faithd::camera::CameraIntrinsics;
-use faithd::flow::{FlowConfig, NormalFlow};
-use faithd::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::flow::{FlowConfig, NormalFlow};
+use faithd_core::synth::{LoomingEdges, looming_edge_events};
 
 fn bench_flow(c: &mut Criterion) {
     let cam = CameraIntrinsics::dvs240();

@@ -6,14 +6,14 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use faithd::camera::CameraIntrinsics;
-use faithd::foe::{
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::foe::{
     Faith, FaithConfig, FoeEstimator, HalfPlaneMap, HalfPlaneMapConfig, Nesw, VecIntersections,
     VecIntersectionsConfig,
 };
-use faithd::synth::{FlowFieldSpec, radial_normal_flow};
+use faithd_core::synth::{FlowFieldSpec, radial_normal_flow};
 
-fn thousand_vectors() -> Vec<faithd::flow::FlowVector> {
+fn thousand_vectors() -> Vec<faithd_core::flow::FlowVector> {
     let cam = CameraIntrinsics::dvs240();
     let spec = FlowFieldSpec {
         angle_noise_deg: 5.0,

@@ -13,9 +13,9 @@ use crate::daemon::record::RecordConfig;
 use crate::daemon::source::SourceConfig;
 use crate::link::MavlinkConfig;
 use crate::link::endpoint::Endpoint;
-use crate::pipeline::PipelineConfig;
-use crate::safety::gate::GateConfig;
-use crate::safety::manoeuvre::ManoeuvreConfig;
+use faithd_core::pipeline::PipelineConfig;
+use faithd_core::safety::gate::GateConfig;
+use faithd_core::safety::manoeuvre::ManoeuvreConfig;
 
 /// The whole file.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -187,7 +187,7 @@ pub fn validate_pipeline(p: &PipelineConfig) -> Result<(), Invalid> {
 
     let f = &p.flow;
     check(
-        (1..=crate::flow::MAX_RADIUS_PX).contains(&f.radius_px),
+        (1..=faithd_core::flow::MAX_RADIUS_PX).contains(&f.radius_px),
         "pipeline.flow.radius_px",
         || format!("must be 1 to 5, got {}", f.radius_px),
     )?;

@@ -1,36 +1,14 @@
-//! faithd: event-camera obstacle avoidance for small drones.
-//!
-//! The modules below the adapters form the pure core: events and attitude samples
-//! stamped in microseconds go in, decisions come out. Nothing in the core reads a
-//! clock, touches a file or a socket, or draws an unseeded random number, so any
-//! recorded flight replays to the same decisions bit for bit.
-//!
-//! Data flow (docs/design.md): [`flow`] (normal flow from events) -> [`derotate`] ->
-//! [`foe`] (FAITH and the baselines) -> [`ttc`] -> [`cluster`] (DBSCAN) -> [`decide`];
-//! [`pipeline`] runs them in order for one window.
+//! faithd, the daemon: the adapters around the pure core (`faithd-core`) that connect
+//! it to a drone. Events come from the camera, attitude and the pilot's switch from
+//! iNav over MAVLink; decisions go back to iNav as timed roll overrides, only while
+//! the safety gate is open. Modules from the outside in (docs/design.md):
 
-pub mod attitude;
-pub mod bench;
-pub mod camera;
+#[cfg(feature = "sim")]
 pub mod closed_loop;
-pub mod cluster;
-pub mod command;
-pub mod config;
-pub mod daemon;
-pub mod decide;
-pub mod demo;
-pub mod derotate;
-pub mod event;
-pub mod flow;
-pub mod foe;
-pub mod link;
-pub mod logging;
-pub mod pipeline;
-pub mod replay;
-pub mod safety;
-pub mod sim;
-pub mod source;
-pub mod synth;
-pub mod ttc;
-pub mod window;
-pub mod window_log;
+pub mod command; // the roll sent to iNav (MSP RC override or MAVLink) and read back
+pub mod config; // faithd.toml: every setting, checked before anything opens
+pub mod daemon; // `faithd run`: the tasks, the 100 Hz cycle, the recorder
+pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
+pub mod logging; // journal-friendly logs that never block the cycle
+pub mod replay; // a recorded flight through the same pipeline, off line
+pub mod source; // the DVS240 over libcaer, and its clock // the daemon flying a simulated quadrotor against a simulated iNav

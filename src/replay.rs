@@ -10,20 +10,18 @@
 use std::io::{BufRead, Write};
 use std::path::Path;
 
-use serde::Serialize;
-
-use crate::attitude::AttitudeSample;
-use crate::decide::Decision;
-use crate::event::Event;
-use crate::foe::FoeEstimate;
-use crate::link::AttitudeLog;
 use crate::link::clock_sync::ClockSync;
 use crate::link::telemetry::{self, Update};
-use crate::link::tlog::{TlogError, TlogReader};
-use crate::pipeline::{NoClock, Pipeline, PipelineConfig};
-use crate::safety::vehicle::VehicleState;
-use crate::source::{SourceError, open_events};
-use crate::window_log::{RecordedWindow, WINDOW_LOG_VERSION, WindowLogHeader, difference};
+use faithd_core::attitude::AttitudeLog;
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::event::Event;
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
+use faithd_core::safety::vehicle::VehicleState;
+use faithd_formats::events::{SourceError, open_events};
+use faithd_formats::tlog::{TlogError, TlogReader};
+use faithd_formats::window_log::{
+    RecordedWindow, WINDOW_LOG_VERSION, WindowLine, WindowLogHeader, difference,
+};
 use serde::Deserialize;
 
 #[derive(Debug, thiserror::Error)]
@@ -78,29 +76,6 @@ pub enum AttitudeInput<'a> {
     None,
     Tlog { path: &'a Path, offset_us: i64 },
     Imu(&'a Path),
-}
-
-/// One decision window, as printed.
-#[derive(Debug, Serialize)]
-pub struct WindowLine {
-    pub t_us: i64,
-    pub events: usize,
-    /// `{"x_px", "y_px"}`, `{"unbounded": side}` or null.
-    pub foe: serde_json::Value,
-    pub vectors: usize,
-    pub clusters: usize,
-    pub derotated: bool,
-    pub decision: Decision,
-}
-
-pub(crate) fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
-    match foe {
-        FoeEstimate::Point { x_px, y_px, .. } => serde_json::json!({"x_px": x_px, "y_px": y_px}),
-        FoeEstimate::Unbounded { side, .. } => {
-            serde_json::json!({"unbounded": format!("{side:?}").to_lowercase()})
-        }
-        FoeEstimate::Insufficient { .. } => serde_json::Value::Null,
-    }
 }
 
 /// ATTITUDE samples of a .tlog, on the autopilot's boot clock plus `offset_us`.
@@ -237,7 +212,7 @@ pub fn replay(
             if pending.is_empty() || (!data_passed && more) {
                 break;
             }
-            let take = crate::window::events_until(&pending, end_us);
+            let take = faithd_core::window::events_until(&pending, end_us);
             let report = pipeline.process_window(&pending[..take], &samples, end_us, &mut NoClock);
             let line = WindowLine::from_report(end_us, take, &report);
             pending.drain(..take);
@@ -268,7 +243,7 @@ pub struct LogReplay {
 }
 
 /// Replays a daemon recording window by window as its window log says the daemon ran
-/// it (see [`crate::window_log`]), printing each window as [`replay`] does and
+/// it (see [`faithd_formats::window_log`]), printing each window as [`replay`] does and
 /// comparing it with the recorded one. `config` overrides the logged pipeline
 /// configuration (to try other settings on a recorded flight).
 pub fn replay_window_log(

@@ -15,9 +15,9 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use faithd::event::{Event, Polarity};
-use faithd::source::aedat4::{Aedat4Config, Aedat4Writer, Compression};
-use faithd::source::{Format, open_events, read_all};
+use faithd_core::event::{Event, Polarity};
+use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Writer, Compression};
+use faithd_formats::events::{Format, open_events, read_all};
 
 const EVENT_COUNT: u64 = 3000;
 const T0_US: i64 = 1_700_000_000_000_000;

@@ -7,8 +7,8 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use faithd::daemon::clock::DaemonClock;
-use faithd::event::Polarity;
 use faithd::source::caer::{CameraError, Ended, SensorSize, SessionError, run, serve_device};
+use faithd_core::event::Polarity;
 use libcaer_sys::Libcaer;
 use libcaer_sys::mock::{LIBRARY, Script};
 

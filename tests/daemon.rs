@@ -409,7 +409,7 @@ fn an_impossible_budget_sheds_load_logs_overruns_and_still_flies() {
 
 #[test]
 fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
-    use faithd::link::tlog::TlogReader;
+    use faithd_formats::tlog::TlogReader;
     use mavlink::dialects::common::MavMessage;
     let (mock, mut daemon) = start(Controls::default());
     wait_for_roll(&mock, &daemon, "recording");
@@ -430,8 +430,8 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
         .find(|p| p.extension().unwrap() == "tlog")
         .expect("mavlink recording");
 
-    let mut reader = faithd::source::open_events(aedat).unwrap();
-    let events = faithd::source::read_all(&mut reader).unwrap();
+    let mut reader = faithd_formats::events::open_events(aedat).unwrap();
+    let events = faithd_formats::events::read_all(&mut reader).unwrap();
     assert!(events.len() > 10_000, "{} events recorded", events.len());
 
     let mut r = TlogReader::new(std::fs::File::open(tlog).unwrap());

@@ -3,12 +3,12 @@
 
 use std::io::Cursor;
 
-use faithd::event::{Event, Polarity};
-use faithd::source::aedat2::{Aedat2Reader, Aedat2Writer};
-use faithd::source::aedat3::{Aedat3Reader, Aedat3Writer};
-use faithd::source::aedat4::{Aedat4Config, Aedat4Reader, Aedat4Writer, Compression};
-use faithd::source::text::{TextReader, TextWriter};
-use faithd::source::{
+use faithd_core::event::{Event, Polarity};
+use faithd_formats::events::aedat2::{Aedat2Reader, Aedat2Writer};
+use faithd_formats::events::aedat3::{Aedat3Reader, Aedat3Writer};
+use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Reader, Aedat4Writer, Compression};
+use faithd_formats::events::text::{TextReader, TextWriter};
+use faithd_formats::events::{
     EventReader, Events, Format, SourceError, open_events, open_reader, read_all,
 };
 use proptest::prelude::*;

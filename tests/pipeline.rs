@@ -1,13 +1,13 @@
 //! The whole core on generated event streams with known answers.
 
-use faithd::attitude::AttitudeSample;
-use faithd::camera::CameraIntrinsics;
-use faithd::decide::{Action, Reason, RollDirection};
-use faithd::event::Event;
-use faithd::flow::{FlowConfig, NormalFlow};
-use faithd::foe::FoeEstimate;
-use faithd::pipeline::{NoClock, Pipeline, PipelineConfig, StageClock};
-use faithd::synth::{Layer, LoomingEdges, looming_edge_events};
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::decide::{Action, Reason, RollDirection};
+use faithd_core::event::Event;
+use faithd_core::flow::{FlowConfig, NormalFlow};
+use faithd_core::foe::FoeEstimate;
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig, StageClock};
+use faithd_core::synth::{Layer, LoomingEdges, looming_edge_events};
 
 const WINDOW_US: i64 = 10_000;
 
@@ -27,14 +27,14 @@ fn run_windows<T>(
     events: &[Event],
     attitude: &[AttitudeSample],
     clock: &mut dyn StageClock,
-    mut f: impl FnMut(&faithd::pipeline::WindowReport<'_>) -> T,
+    mut f: impl FnMut(&faithd_core::pipeline::WindowReport<'_>) -> T,
 ) -> Vec<T> {
     let end_us = events.last().map_or(0, |e| e.t_us) + 1;
     let mut out = Vec::new();
     let mut start = 0;
     let mut window_end_us = WINDOW_US;
     while window_end_us <= end_us + WINDOW_US {
-        let stop = start + faithd::window::events_until(&events[start..], window_end_us);
+        let stop = start + faithd_core::window::events_until(&events[start..], window_end_us);
         let att: Vec<_> = attitude
             .iter()
             .copied()
@@ -80,7 +80,7 @@ fn flow_of_looming_edges_matches_the_closed_form() {
         if along > 0.0 {
             away += 1;
         }
-        let ttc = faithd::ttc::ttc_s(v, (110.0, 95.0), &Default::default());
+        let ttc = faithd_core::ttc::ttc_s(v, (110.0, 95.0), &Default::default());
         let truth_s = 2.0 - v.t_us as f64 * 1e-6;
         if ttc.is_some_and(|t| (t - truth_s).abs() < 0.15 * truth_s) {
             ttc_ok += 1;
@@ -245,7 +245,7 @@ fn same_input_same_output_bit_for_bit() {
     scene.jitter_us = 100.0;
     let events = looming_edge_events(&cam, &scene, 21);
     let attitude = level_attitude(600_000);
-    let render = |r: &faithd::pipeline::WindowReport<'_>| {
+    let render = |r: &faithd_core::pipeline::WindowReport<'_>| {
         format!(
             "{:?}|{:?}|{:?}|{:?}|{:?}",
             r.foe, r.ttc_s, r.labels, r.clusters, r.decision

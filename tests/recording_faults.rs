@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use common::{Controls, MockAutopilot, TempDir, poll_until};
-use faithd::link::tlog::TlogReader;
-use faithd::source::EventReader;
-use faithd::source::aedat4::Aedat4Reader;
+use faithd_formats::events::EventReader;
+use faithd_formats::events::aedat4::Aedat4Reader;
+use faithd_formats::tlog::TlogReader;
 
 /// A small tmpfs: a card that fills up. Unmounted when dropped.
 struct Tmpfs(PathBuf);

@@ -7,16 +7,16 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use faithd::camera::CameraIntrinsics;
-use faithd::link::tlog::TlogWriter;
-use faithd::pipeline::{NoClock, Pipeline, PipelineConfig};
-use faithd::source::aedat4::{Aedat4Config, Aedat4Writer};
-use faithd::source::text::TextWriter;
-use faithd::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
+use faithd_core::synth::{LoomingEdges, looming_edge_events};
+use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Writer};
+use faithd_formats::events::text::TextWriter;
+use faithd_formats::tlog::TlogWriter;
 use mavlink::MavHeader;
 use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
 
-fn events() -> Vec<faithd::event::Event> {
+fn events() -> Vec<faithd_core::event::Event> {
     let mut scene = LoomingEdges::pole_ahead((125.0, 88.0));
     scene.duration_s = 0.6;
     scene.noise_rate_hz = 0.5;
@@ -96,7 +96,7 @@ fn aedat4_and_text_replay_to_the_pipelines_own_decisions_every_time() {
     // The same pipeline run directly over the same events, window by window.
     let ev = events();
     let attitude: Vec<_> = (0..=70)
-        .map(|k| faithd::attitude::AttitudeSample {
+        .map(|k| faithd_core::attitude::AttitudeSample {
             t_us: k * 10_000,
             ..Default::default()
         })
@@ -106,7 +106,7 @@ fn aedat4_and_text_replay_to_the_pipelines_own_decisions_every_time() {
     let mut end = ev[0].t_us + 10_000;
     let mut start = 0;
     while start < ev.len() {
-        let stop = start + faithd::window::events_until(&ev[start..], end);
+        let stop = start + faithd_core::window::events_until(&ev[start..], end);
         let r = pipeline.process_window(&ev[start..stop], &attitude, end, &mut NoClock);
         direct.push(serde_json::to_value(r.decision).unwrap());
         start = stop;
@@ -168,9 +168,11 @@ fn a_time_beyond_any_clock_is_refused_not_looped_on() {
 }
 
 /// The first line of a window log as the daemon writes it, with `pipeline`.
-fn log_header(pipeline: faithd::pipeline::PipelineConfig) -> faithd::window_log::WindowLogHeader {
-    faithd::window_log::WindowLogHeader {
-        faithd_window_log: faithd::window_log::WINDOW_LOG_VERSION,
+fn log_header(
+    pipeline: faithd_core::pipeline::PipelineConfig,
+) -> faithd_formats::window_log::WindowLogHeader {
+    faithd_formats::window_log::WindowLogHeader {
+        faithd_window_log: faithd_formats::window_log::WINDOW_LOG_VERSION,
         faithd_version: "0.1.0".into(),
         clock_start_unix_us: 0,
         own_system_id: 1,
@@ -188,7 +190,7 @@ fn log_header(pipeline: faithd::pipeline::PipelineConfig) -> faithd::window_log:
 fn a_crafted_window_log_header_is_refused_before_it_allocates() {
     let dir = common::TempDir::new("replay-crafted-log");
     write_inputs(&dir.0);
-    let header = log_header(faithd::pipeline::PipelineConfig {
+    let header = log_header(faithd_core::pipeline::PipelineConfig {
         max_vectors: 1_000_000_000_000,
         ..Default::default()
     });
@@ -217,7 +219,7 @@ fn a_crafted_window_log_header_is_refused_before_it_allocates() {
 fn a_window_log_cut_short_by_a_kill_replays_up_to_its_last_whole_line() {
     let dir = common::TempDir::new("replay-torn-log");
     write_inputs(&dir.0);
-    let header = log_header(faithd::pipeline::PipelineConfig::default());
+    let header = log_header(faithd_core::pipeline::PipelineConfig::default());
     let header = serde_json::to_string(&header).unwrap();
     let events = dir.0.join("flight.aedat4");
     let log = dir.0.join("flight.windows.jsonl");

@@ -1,10 +1,10 @@
 //! The event-camera simulator against closed-form expectations.
 
-use faithd::camera::{CameraIntrinsics, Mounting};
-use faithd::event::Polarity;
-use faithd::sim::scene::{Scene, Shape, Solid};
-use faithd::sim::texture::{Pattern, Texture};
-use faithd::sim::{DvsConfig, EventCamera, ImuConfig, Trajectory, simulate};
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::Polarity;
+use faithd_sim::world::scene::{Scene, Shape, Solid};
+use faithd_sim::world::texture::{Pattern, Texture};
+use faithd_sim::world::{DvsConfig, EventCamera, ImuConfig, Trajectory, simulate};
 use nalgebra::Vector3;
 
 fn flat(reflectance: f64) -> Texture {
@@ -129,7 +129,7 @@ fn events_are_time_ordered_and_a_static_camera_sees_only_noise() {
 #[test]
 fn same_seed_same_events_and_imu() {
     let cam = CameraIntrinsics::dvs240();
-    let scene = faithd::sim::SceneKind::Kitchen.build(4);
+    let scene = faithd_sim::world::SceneKind::Kitchen.build(4);
     let mut t = Trajectory::straight([-4.0, 0.2, -1.2], 3.0, -12.0, 1.5);
     t.yaw_amp_deg = 2.0;
     t.yaw_hz = 1.0;
@@ -195,7 +195,7 @@ fn the_event_camera_can_be_stepped_for_closed_loop_use() {
 
 #[test]
 fn a_small_foe_benchmark_is_deterministic_and_ranks_faith_first() {
-    use faithd::bench::foe::{BenchFoeOptions, run};
+    use faithd_sim::bench::foe::{BenchFoeOptions, run};
     let options = BenchFoeOptions {
         trajectories: 4,
         seed: 5,
@@ -213,7 +213,7 @@ fn a_small_foe_benchmark_is_deterministic_and_ranks_faith_first() {
         &|_, _| {},
     );
     // Bit patterns, so a trajectory with no usable window (NaN) compares equal too.
-    let errors = |r: &faithd::bench::foe::BenchFoeReport| {
+    let errors = |r: &faithd_sim::bench::foe::BenchFoeReport| {
         r.per_trajectory
             .iter()
             .map(|t| t.mean_error_deg.iter().map(|e| e.to_bits()).collect())
@@ -240,8 +240,8 @@ fn a_small_foe_benchmark_is_deterministic_and_ranks_faith_first() {
     // The figures render from the report.
     let dir = std::env::temp_dir().join(format!("faithd-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    faithd::bench::plot::plot_errors(&a, &dir.join("e.png")).unwrap();
-    faithd::bench::plot::plot_frame(a.example.as_ref().unwrap(), &dir.join("f.png")).unwrap();
+    faithd_sim::bench::plot::plot_errors(&a, &dir.join("e.png")).unwrap();
+    faithd_sim::bench::plot::plot_frame(a.example.as_ref().unwrap(), &dir.join("f.png")).unwrap();
     assert!(std::fs::metadata(dir.join("f.png")).unwrap().len() > 10_000);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -6,7 +6,7 @@ mod common;
 
 use std::process::Command;
 
-use faithd::link::tlog::{TlogReader, TlogWriter};
+use faithd_formats::tlog::{TlogReader, TlogWriter};
 use mavlink::MavHeader;
 use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
 

@@ -6,8 +6,8 @@
 
 use faithd::link::clock_sync::ClockSync;
 use faithd::link::telemetry;
-use faithd::safety::gate::{self, CommandPathStatus, FcStatus, GateConfig, PipelineStatus};
-use faithd::safety::vehicle::VehicleState;
+use faithd_core::safety::gate::{self, CommandPathStatus, FcStatus, GateConfig, PipelineStatus};
+use faithd_core::safety::vehicle::VehicleState;
 use libfuzzer_sys::fuzz_target;
 use mavlink::dialects::common::MavMessage;
 

@@ -2,7 +2,7 @@
 //! unbounded allocation.
 #![no_main]
 
-use faithd::source::{Format, open_reader, read_all};
+use faithd_formats::events::{Format, open_reader, read_all};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

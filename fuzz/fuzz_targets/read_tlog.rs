@@ -1,7 +1,7 @@
 //! Any bytes as a .tlog: records or an error, never a panic or a runaway allocation.
 #![no_main]
 
-use faithd::link::tlog::TlogReader;
+use faithd_formats::tlog::TlogReader;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -3,7 +3,7 @@
 //! a panic.
 #![no_main]
 
-use faithd::window_log::{RecordedWindow, WindowLogHeader};
+use faithd_formats::window_log::{RecordedWindow, WindowLogHeader};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

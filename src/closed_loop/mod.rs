@@ -105,7 +105,7 @@ pub struct FlightOutcome {
     /// at the autopilot, milliseconds.
     pub latency_ms: Option<f64>,
     /// The decision that started the roll, with its evidence.
-    pub decision: Option<crate::decide::Decision>,
+    pub decision: Option<faithd_core::decide::Decision>,
     pub path: Vec<PathPoint>,
 }
 

@@ -11,12 +11,12 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::FlightSpec;
-use crate::camera::{CameraIntrinsics, Mounting};
 use crate::daemon::clock::DaemonClock;
-use crate::event::Event;
-use crate::sim::line_camera::{ArenaSpec, LineCamera};
-use crate::sim::quad::{Quad, QuadConfig};
-use crate::sim::trajectory::VehicleState;
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::Event;
+use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};
+use faithd_sim::world::quad::{Quad, QuadConfig};
+use faithd_sim::world::trajectory::VehicleState;
 
 /// Half the span of the vehicle: contact when its centre comes this close to a pole's surface.
 pub const VEHICLE_RADIUS_M: f64 = 0.15;

@@ -5,7 +5,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::FlightOutcome;
-use crate::bench::plot::{PlotError, fail, use_bundled_font};
+use faithd_sim::bench::plot::{PlotError, fail, use_bundled_font};
 
 pub fn plot_flight(outcome: &FlightOutcome, path: &Path) -> Result<(), PlotError> {
     use_bundled_font();

@@ -13,8 +13,8 @@ use serde::Serialize;
 
 use super::FlightSpec;
 use super::physics::{arena_and_camera, clearance_m, initial_quad};
-use crate::decide::{Action, Decision};
-use crate::pipeline::{NoClock, Pipeline, PipelineConfig};
+use faithd_core::decide::{Action, Decision};
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
 
 /// A roll decided at a true TTC below this is too late to clear the pole.
 pub const IN_TIME_S: f64 = 0.8;
@@ -83,7 +83,7 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
         if t_us % WINDOW_US != 0 {
             continue;
         }
-        let take = crate::window::events_until(&pending, t_us);
+        let take = faithd_core::window::events_until(&pending, t_us);
         let decision = pipeline
             .process_window(&pending[..take], &attitude, t_us, &mut NoClock)
             .decision;

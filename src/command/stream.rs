@@ -56,7 +56,7 @@ pub struct StreamStatus {
     pub facts: Option<RouteFacts>,
     pub last_report: Option<RollReport>,
     /// iNav's own state (armed, failsafe, override mode), read every period.
-    pub fc: Option<crate::safety::gate::FcStatus>,
+    pub fc: Option<faithd_core::safety::gate::FcStatus>,
 }
 
 /// Asks the stream to end with the stick centre: `repeats` frames one period apart,
@@ -298,7 +298,7 @@ async fn serve(
                         match facts.status_bits.decode(&f.payload) {
                             Some((armed, failsafe, override_on)) => publish_fc_status(
                                 status,
-                                crate::safety::gate::FcStatus {
+                                faithd_core::safety::gate::FcStatus {
                                     t_us: clock.now_us(),
                                     armed,
                                     failsafe,
@@ -320,8 +320,11 @@ async fn serve(
 }
 
 /// Hands iNav's latest status to the gate, saying in the journal when it changed.
-fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: crate::safety::gate::FcStatus) {
-    let flags = |f: &crate::safety::gate::FcStatus| (f.armed, f.failsafe, f.override_on);
+fn publish_fc_status(
+    status: &watch::Sender<StreamStatus>,
+    fc: faithd_core::safety::gate::FcStatus,
+) {
+    let flags = |f: &faithd_core::safety::gate::FcStatus| (f.armed, f.failsafe, f.override_on);
     status.send_modify(|s| {
         if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
             tracing::info!(

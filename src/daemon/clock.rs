@@ -40,7 +40,7 @@ impl DaemonClock {
     }
 }
 
-impl crate::pipeline::StageClock for DaemonClock {
+impl faithd_core::pipeline::StageClock for DaemonClock {
     fn now_ns(&mut self) -> u64 {
         u64::try_from(self.start.elapsed().as_nanos()).unwrap_or(u64::MAX)
     }

@@ -15,13 +15,13 @@ use tokio::sync::watch;
 use super::DaemonConfig;
 use super::clock::DaemonClock;
 use super::shed::Shedder;
-use crate::decide::{Action, Decision};
-use crate::event::Event;
-use crate::link::AttitudeLog;
-use crate::pipeline::{Pipeline, PipelineConfig};
-use crate::replay::WindowLine;
-use crate::safety::gate::{PipelineProblem, PipelineStatus};
-use crate::window_log::WindowLogLine;
+use faithd_core::attitude::AttitudeLog;
+use faithd_core::decide::{Action, Decision};
+use faithd_core::event::Event;
+use faithd_core::pipeline::{Pipeline, PipelineConfig};
+use faithd_core::safety::gate::{PipelineProblem, PipelineStatus};
+use faithd_formats::window_log::WindowLine;
+use faithd_formats::window_log::WindowLogLine;
 
 /// Repeated warnings (overruns) are logged at most this often, with a count.
 const LOG_EVERY_US: i64 = 5_000_000;
@@ -91,7 +91,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
     let mut last_batch_us = clock.now_us();
     let mut last_logged: Option<(
         std::mem::Discriminant<Action>,
-        std::mem::Discriminant<crate::decide::Reason>,
+        std::mem::Discriminant<faithd_core::decide::Reason>,
     )> = None;
     let mut next_us = clock.now_us() + config.period_us;
     let mut stage_clock = clock;
@@ -129,7 +129,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
         }
         let started_us = clock.now_us();
         let window_end_us = started_us;
-        let take = crate::window::events_until(&pending, window_end_us);
+        let take = faithd_core::window::events_until(&pending, window_end_us);
         io.attitude
             .lock()
             .expect("attitude log lock")

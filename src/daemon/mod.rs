@@ -34,15 +34,16 @@ use crate::command::fc_check::Expectations;
 use crate::command::stream::RollReport;
 use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
-use crate::decide::Action;
-use crate::event::Event;
 use crate::link::endpoint::Endpoint;
-use crate::link::{self, AttitudeLog, LinkOutputs};
-use crate::safety::confirm::{RollConfirm, Verdict};
-use crate::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
-use crate::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
-use crate::safety::vehicle::VehicleState;
+use crate::link::{self, LinkOutputs};
 use clock::DaemonClock;
+use faithd_core::attitude::AttitudeLog;
+use faithd_core::decide::Action;
+use faithd_core::event::Event;
+use faithd_core::safety::confirm::{RollConfirm, Verdict};
+use faithd_core::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
+use faithd_core::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
+use faithd_core::safety::vehicle::VehicleState;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -209,7 +210,7 @@ pub enum Observation {
     ManoeuvreStarted {
         last_event_us: i64,
         started_us: i64,
-        decision: crate::decide::Decision,
+        decision: faithd_core::decide::Decision,
     },
 }
 
@@ -235,8 +236,8 @@ pub async fn serve(
         "faithd starting"
     );
 
-    let window_log_header = crate::window_log::WindowLogHeader {
-        faithd_window_log: crate::window_log::WINDOW_LOG_VERSION,
+    let window_log_header = faithd_formats::window_log::WindowLogHeader {
+        faithd_window_log: faithd_formats::window_log::WINDOW_LOG_VERSION,
         faithd_version: env!("CARGO_PKG_VERSION").into(),
         clock_start_unix_us: clock.start_unix_us(),
         own_system_id: config.mavlink.system_id,
@@ -392,7 +393,7 @@ fn stream_settings(config: &FaithdConfig) -> StreamSettings {
 async fn release_on_exit(
     stream: &StreamHandle,
     endpoint: &Endpoint,
-    manoeuvre: &crate::safety::manoeuvre::ManoeuvreConfig,
+    manoeuvre: &faithd_core::safety::manoeuvre::ManoeuvreConfig,
 ) {
     let repeats = manoeuvre.release_repeats;
     let facts = stream.status.borrow().facts;
@@ -466,7 +467,7 @@ async fn commander_task(
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;
-    let mut request: Option<(i64, RollRequest, i64, crate::decide::Decision)> = None;
+    let mut request: Option<(i64, RollRequest, i64, faithd_core::decide::Decision)> = None;
     loop {
         tokio::select! {
             _ = tick.tick() => {}

@@ -8,9 +8,9 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 
 use super::clock::DaemonClock;
-use crate::camera::CameraIntrinsics;
-use crate::event::Event;
-use crate::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::event::Event;
+use faithd_core::synth::{LoomingEdges, looming_edge_events};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

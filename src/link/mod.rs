@@ -6,9 +6,7 @@
 pub mod clock_sync;
 pub mod endpoint;
 pub mod telemetry;
-pub mod tlog;
 
-use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -19,12 +17,12 @@ use mavlink::{AsyncMavlinkReader, MavHeader, MavlinkVersion};
 use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
-use crate::attitude::AttitudeSample;
 use crate::daemon::clock::DaemonClock;
 use crate::daemon::supervise::Heartbeat;
-use crate::safety::vehicle::VehicleState;
 use clock_sync::ClockSync;
 use endpoint::{BoxedTransport, Endpoint};
+use faithd_core::attitude::AttitudeLog;
+use faithd_core::safety::vehicle::VehicleState;
 use telemetry::Update;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -73,57 +71,6 @@ impl Default for MavlinkConfig {
 /// ATTITUDE messages the clock offset is estimated over (five seconds at 50 Hz); the
 /// replay of a recorded flight uses the same.
 pub const CLOCK_SYNC_WINDOW: usize = 250;
-
-/// Recent attitude samples on the daemon clock, shared with the pipeline thread.
-#[derive(Debug, Default)]
-pub struct AttitudeLog {
-    samples: VecDeque<AttitudeSample>,
-}
-
-impl AttitudeLog {
-    /// How far back samples are kept.
-    const SPAN_US: i64 = 2_000_000;
-
-    pub fn push(&mut self, sample: AttitudeSample) {
-        if self
-            .samples
-            .back()
-            .is_some_and(|last| sample.t_us < last.t_us)
-        {
-            // Out of order (or the autopilot rebooted): start over rather than
-            // hand derotation an unsorted list.
-            self.samples.clear();
-        }
-        self.samples.push_back(sample);
-        let oldest = sample.t_us - Self::SPAN_US;
-        while self.samples.front().is_some_and(|s| s.t_us < oldest) {
-            self.samples.pop_front();
-        }
-    }
-
-    /// Copies the samples from `from_us` on (and the one before, for interpolation).
-    pub fn copy_since(&self, from_us: i64, out: &mut Vec<AttitudeSample>) {
-        out.clear();
-        let start = self.samples.partition_point(|s| s.t_us < from_us);
-        out.extend(self.samples.range(start.saturating_sub(1)..).copied());
-    }
-
-    /// The samples a pipeline window ending at `window_end_us` needs: its history and
-    /// a 100 ms margin before it (the live daemon and the replay of its recordings
-    /// both ask this).
-    pub fn copy_for_window(
-        &self,
-        window_end_us: i64,
-        history_us: i64,
-        out: &mut Vec<AttitudeSample>,
-    ) {
-        self.copy_since(window_end_us - history_us - 100_000, out);
-    }
-
-    pub fn clear(&mut self) {
-        self.samples.clear();
-    }
-}
 
 /// What the link task publishes.
 #[derive(Clone)]
@@ -333,32 +280,4 @@ fn own_heartbeat() -> MavMessage {
         system_status: MavState::MAV_STATE_ACTIVE,
         mavlink_version: 3,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn at(t_us: i64) -> AttitudeSample {
-        AttitudeSample {
-            t_us,
-            ..Default::default()
-        }
-    }
-
-    #[test]
-    fn attitude_log_keeps_two_seconds_and_the_sample_before_a_window() {
-        let mut log = AttitudeLog::default();
-        for t in (0..=3_000_000).step_by(20_000) {
-            log.push(at(t));
-        }
-        let mut out = Vec::new();
-        log.copy_since(0, &mut out);
-        assert_eq!(out[0].t_us, 1_000_000, "older than 2 s dropped");
-        log.copy_since(2_010_000, &mut out);
-        assert_eq!(out[0].t_us, 2_000_000, "one sample before the window");
-        log.push(at(5));
-        log.copy_since(0, &mut out);
-        assert_eq!(out.len(), 1, "out of order starts over");
-    }
 }

@@ -3,8 +3,8 @@
 use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage, MavModeFlag, MavSysStatusSensor};
 
 use super::clock_sync::ClockSync;
-use crate::attitude::AttitudeSample;
-use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels, VehicleState};
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::safety::vehicle::{Heartbeat, RadioHealth, RcChannels, VehicleState};
 
 /// What one received message changed.
 #[derive(Clone, Copy, Debug, PartialEq)]

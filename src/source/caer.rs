@@ -18,8 +18,8 @@ use std::time::Duration;
 use libcaer_sys::{self as caer, Libcaer};
 
 use crate::daemon::clock::DaemonClock;
-use crate::event::{Event, Polarity};
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
+use faithd_core::event::{Event, Polarity};
 
 /// One libcaer configuration write.
 pub type Setting = (i8, u8, u32);

@@ -23,8 +23,8 @@ use mavlink::MavHeader;
 use mavlink::dialects::common::MavMessage;
 use serde::{Deserialize, Serialize};
 
-use crate::event::Event;
-use crate::window_log::WindowLogHeader;
+use faithd_core::event::Event;
+use faithd_formats::window_log::WindowLogHeader;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -224,7 +224,7 @@ impl Recorder {
 /// Starts the recorder thread; `None` (and a log line) when recording is off or the
 /// directory cannot be made.
 ///
-/// `window_log_header` opens every window-log file (see [`crate::window_log`]); its
+/// `window_log_header` opens every window-log file (see [`faithd_formats::window_log`]); its
 /// camera is the sensor the event files declare.
 pub fn start(config: &RecordConfig, window_log_header: &WindowLogHeader) -> Option<Recorder> {
     if !config.enabled {

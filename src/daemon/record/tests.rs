@@ -5,16 +5,16 @@ use mavlink::MavHeader;
 use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
 
 use super::*;
-use crate::event::Polarity;
-use crate::source::aedat4::Aedat4Reader;
-use crate::source::{EventReader, read_all};
+use faithd_core::event::Polarity;
+use faithd_formats::events::aedat4::Aedat4Reader;
+use faithd_formats::events::{EventReader, read_all};
 
 fn header(width_px: u16, height_px: u16) -> WindowLogHeader {
-    let mut pipeline = crate::pipeline::PipelineConfig::default();
+    let mut pipeline = faithd_core::pipeline::PipelineConfig::default();
     pipeline.camera.width_px = width_px;
     pipeline.camera.height_px = height_px;
     WindowLogHeader {
-        faithd_window_log: crate::window_log::WINDOW_LOG_VERSION,
+        faithd_window_log: faithd_formats::window_log::WINDOW_LOG_VERSION,
         faithd_version: "test".into(),
         clock_start_unix_us: 0,
         own_system_id: 1,

@@ -17,10 +17,10 @@ use std::time::{Duration, Instant};
 
 use super::budget::Budget;
 use super::{Counts, Item, MavlinkRecord, RecordConfig, Stats, stem};
-use crate::event::Event;
-use crate::link::tlog;
-use crate::source::SourceError;
-use crate::source::aedat4::{Aedat4Config, Aedat4Writer};
+use faithd_core::event::Event;
+use faithd_formats::events::SourceError;
+use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Writer};
+use faithd_formats::tlog;
 
 pub(super) struct Setup {
     pub config: RecordConfig,

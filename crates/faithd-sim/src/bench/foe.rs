@@ -14,14 +14,14 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
-use crate::camera::CameraIntrinsics;
-use crate::derotate::{DerotationConfig, Derotator};
-use crate::flow::{FlowConfig, FlowVector, NormalFlow};
-use crate::foe::{
+use crate::world::{DvsConfig, ImuConfig, SceneKind, Trajectory, simulate};
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::derotate::{DerotationConfig, Derotator};
+use faithd_core::flow::{FlowConfig, FlowVector, NormalFlow};
+use faithd_core::foe::{
     Faith, FaithConfig, FoeEstimate, FoeEstimator, HalfPlaneMap, HalfPlaneMapConfig, Nesw,
     VecIntersections, VecIntersectionsConfig,
 };
-use crate::sim::{DvsConfig, ImuConfig, SceneKind, Trajectory, simulate};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -116,7 +116,7 @@ pub struct ExampleFrame {
     pub t_us: i64,
     pub width_px: u16,
     pub height_px: u16,
-    pub events: Vec<crate::event::Event>,
+    pub events: Vec<faithd_core::event::Event>,
     pub vectors: Vec<FlowVector>,
     pub truth_px: (f64, f64),
     pub estimates: Vec<(String, FoeEstimate)>,
@@ -229,7 +229,7 @@ fn run_flight(
     methods: &mut [(String, Box<dyn FoeEstimator>)],
 ) -> FlightOutcome {
     let camera = CameraIntrinsics::dvs240();
-    let flight_seed = crate::pipeline::window_seed(options.seed, index as i64);
+    let flight_seed = faithd_core::pipeline::window_seed(options.seed, index as i64);
     let scene = flight.scene.build(flight_seed);
     let run = simulate(
         &scene,
@@ -271,7 +271,7 @@ fn run_flight(
         };
         let mut estimates = Vec::new();
         for (name, method) in methods.iter_mut() {
-            let seed = crate::pipeline::window_seed(flight_seed, t_us);
+            let seed = faithd_core::pipeline::window_seed(flight_seed, t_us);
             let started = Instant::now();
             let estimate = method.estimate(window, seed);
             let us = started.elapsed().as_secs_f64() * 1e6;

@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use super::scene::Scene;
 use super::trajectory::VehicleState;
-use crate::camera::{CameraIntrinsics, Mounting};
-use crate::event::{Event, Polarity};
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::{Event, Polarity};
 
 /// Sensor imperfections, with defaults near a DVS240's datasheet and ESIM's practice.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -9,8 +9,8 @@ use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
 
 use super::foe::{BenchFoeReport, ExampleFrame};
-use crate::event::Polarity;
-use crate::foe::FoeEstimate;
+use faithd_core::event::Polarity;
+use faithd_core::foe::FoeEstimate;
 
 /// DejaVu Sans, shipped so that figures render the same on a machine with no fonts.
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");

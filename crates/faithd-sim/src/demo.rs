@@ -7,11 +7,11 @@
 
 use serde::Serialize;
 
-use crate::attitude::AttitudeSample;
-use crate::camera::CameraIntrinsics;
-use crate::decide::{Action, Decision};
-use crate::pipeline::{Pipeline, PipelineConfig, StageClock};
-use crate::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::decide::{Action, Decision};
+use faithd_core::pipeline::{Pipeline, PipelineConfig, StageClock};
+use faithd_core::synth::{LoomingEdges, looming_edge_events};
 
 /// What a person wants to know after the demo flight.
 #[derive(Clone, Debug, Serialize)]
@@ -69,7 +69,7 @@ pub fn run(seed: u64, window_us: i64, clock: &mut dyn StageClock) -> DemoSummary
     let mut window_end_us = window_us;
     let last_us = events.last().map_or(0, |e| e.t_us);
     while window_end_us <= last_us + window_us {
-        let stop = start + crate::window::events_until(&events[start..], window_end_us);
+        let stop = start + faithd_core::window::events_until(&events[start..], window_end_us);
         let report = pipeline.process_window(&events[start..stop], &attitude, window_end_us, clock);
         start = stop;
         summary.windows += 1;

@@ -6,9 +6,9 @@ use super::compression::decompress;
 use super::flatbuf::{self, FlatError};
 use super::info::{StreamInfo, parse_streams};
 use super::{Compression, MAGIC, MAX_HEADER_BYTES, MAX_PACKET_BYTES};
-use crate::event::Event;
-use crate::source::counted::CountedReader;
-use crate::source::{EventReader, Format, SourceError};
+use crate::events::counted::CountedReader;
+use crate::events::{EventReader, Format, SourceError};
+use faithd_core::event::Event;
 
 /// Reads the polarity events of every `EVTS` stream of an AEDAT 4 file, skipping the
 /// packets of other streams (frames, IMU, triggers) by their size.

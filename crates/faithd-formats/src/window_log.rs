@@ -13,9 +13,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::foe::FaithConfig;
-use crate::pipeline::{PipelineConfig, WindowReport};
-use crate::replay::WindowLine;
+use faithd_core::decide::Decision;
+use faithd_core::foe::{FaithConfig, FoeEstimate};
+use faithd_core::pipeline::{PipelineConfig, WindowReport};
 
 /// Format version, bumped on any change a reader must know about.
 ///
@@ -85,13 +85,36 @@ pub struct RecordedWindow {
     pub foe_iterations: u32,
 }
 
+/// One decision window, as printed.
+#[derive(Debug, Serialize)]
+pub struct WindowLine {
+    pub t_us: i64,
+    pub events: usize,
+    /// `{"x_px", "y_px"}`, `{"unbounded": side}` or null.
+    pub foe: serde_json::Value,
+    pub vectors: usize,
+    pub clusters: usize,
+    pub derotated: bool,
+    pub decision: Decision,
+}
+
+pub fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
+    match foe {
+        FoeEstimate::Point { x_px, y_px, .. } => serde_json::json!({"x_px": x_px, "y_px": y_px}),
+        FoeEstimate::Unbounded { side, .. } => {
+            serde_json::json!({"unbounded": format!("{side:?}").to_lowercase()})
+        }
+        FoeEstimate::Insufficient { .. } => serde_json::Value::Null,
+    }
+}
+
 impl WindowLine {
     /// The printed form of one window's report.
     pub fn from_report(t_us: i64, events: usize, report: &WindowReport<'_>) -> Self {
         WindowLine {
             t_us,
             events,
-            foe: crate::replay::foe_json(&report.foe),
+            foe: foe_json(&report.foe),
             vectors: report.vectors.len(),
             clusters: report.clusters.len(),
             derotated: report.derotation.applied,

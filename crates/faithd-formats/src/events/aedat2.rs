@@ -23,7 +23,7 @@ use std::io::{Read, Write};
 
 use super::counted::{CountedReader, read_hash_header};
 use super::{AEDAT2_MAGIC, EventReader, Format, SourceError};
-use crate::event::{Event, Polarity};
+use faithd_core::event::{Event, Polarity};
 
 const APS_FLAG: u32 = 1 << 31;
 const IMU_FLAG: u32 = 1 << 10;

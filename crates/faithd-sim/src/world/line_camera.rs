@@ -10,8 +10,8 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
 use super::trajectory::VehicleState;
-use crate::camera::{CameraIntrinsics, Mounting};
-use crate::event::{Event, Polarity};
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::{Event, Polarity};
 
 /// A vertical pole standing on the floor (z = 0, NED: z down).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -431,7 +431,7 @@ impl LineCamera {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::quad::{Quad, QuadConfig};
+    use crate::world::quad::{Quad, QuadConfig};
 
     #[test]
     fn approaching_a_pole_makes_it_loom_with_events_on_both_silhouettes() {

@@ -14,7 +14,7 @@ use std::io::{Read, Write};
 
 use super::counted::{CountedReader, read_hash_header};
 use super::{AEDAT3_MAGIC, EventReader, Format, SourceError};
-use crate::event::{Event, Polarity};
+use faithd_core::event::{Event, Polarity};
 
 const HEADER_BYTES: usize = 28;
 const POLARITY_EVENT_TYPE: i16 = 1;

@@ -25,9 +25,9 @@ use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
-use crate::attitude::AttitudeSample;
-use crate::camera::{CameraIntrinsics, Mounting};
-use crate::event::Event;
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::Event;
 
 /// The gyro of the simulated autopilot.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

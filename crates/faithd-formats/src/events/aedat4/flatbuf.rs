@@ -15,7 +15,7 @@
 //! default). Strings and vectors are reached through `u32` forward offsets and start
 //! with a `u32` length.
 
-use crate::event::{Event, Polarity};
+use faithd_core::event::{Event, Polarity};
 
 /// Where and why a flatbuffer did not parse, relative to the buffer.
 #[derive(Debug)]

@@ -2,8 +2,8 @@
 
 use nalgebra::{Rotation3, Vector3};
 
-use crate::attitude::AttitudeSample;
-use crate::camera::{CameraIntrinsics, Mounting};
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::camera::{CameraIntrinsics, Mounting};
 
 /// A flight through a scene, in world axes (x forward, y right, z down).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]

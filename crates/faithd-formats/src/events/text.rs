@@ -11,7 +11,7 @@ use std::io::{Read, Write};
 
 use super::counted::CountedReader;
 use super::{EventReader, Format, SourceError};
-use crate::event::{Event, Polarity};
+use faithd_core::event::{Event, Polarity};
 
 /// Longest accepted line; real lines are under 40 bytes.
 const MAX_LINE_BYTES: u64 = 4096;

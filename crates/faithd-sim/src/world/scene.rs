@@ -349,7 +349,7 @@ impl Shape {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sim::texture::Pattern;
+    use crate::world::texture::Pattern;
 
     fn tex() -> Texture {
         Texture::new(Pattern::Noise, 0.2, 0.5, 0.5, 1)
@@ -357,7 +357,7 @@ mod tests {
 
     #[test]
     fn hierarchy_finds_the_same_hits_as_testing_every_solid() {
-        let scene = crate::sim::SceneKind::Shelves.build(3);
+        let scene = crate::world::SceneKind::Shelves.build(3);
         let o = Vector3::new(-4.0, 0.2, -1.2);
         for i in 0..2000 {
             let a = f64::from(i) * 0.0031;

@@ -7,8 +7,8 @@ use super::compression::compress;
 use super::flatbuf::{self, DataTableEntry};
 use super::info::event_stream_xml;
 use super::{Compression, MAGIC};
-use crate::event::Event;
-use crate::source::SourceError;
+use crate::events::SourceError;
+use faithd_core::event::Event;
 
 /// What the header of a new recording says.
 #[derive(Clone, Debug, PartialEq, Eq)]

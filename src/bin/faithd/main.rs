@@ -1,0 +1,165 @@
+//! The `faithd` command: one binary for the daemon, the tools and, with the `sim`
+//! feature, the experiments. `main` parses the arguments once into one struct per
+//! subcommand, runs it, and maps what went wrong to one of the exit statuses below.
+
+mod flight;
+#[cfg(feature = "sim")]
+mod simulate;
+
+use std::fmt::Display;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+/// faithd's exit statuses (docs/design.md, Commands): scripts and the systemd unit
+/// read them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Exit {
+    Ok = 0,
+    /// Could not do the job: a fault, a task that ended, an I/O error on output.
+    Failed = 1,
+    /// Refused: bad configuration or input, a missing library, a camera that does
+    /// not match the configuration. The unit does not restart on it.
+    Refused = 2,
+    /// A replay whose windows decide otherwise than the flight did.
+    Differs = 3,
+}
+
+/// Why a command did not succeed: its exit status and what to tell the user (none
+/// when the command's own output already said it).
+#[derive(Debug)]
+struct Failure {
+    exit: Exit,
+    message: Option<String>,
+}
+
+impl Failure {
+    fn failed(why: impl Display) -> Self {
+        Self::with(Exit::Failed, format!("error: {why}"))
+    }
+
+    fn refused(why: impl Display) -> Self {
+        Self::with(Exit::Refused, format!("error: {why}"))
+    }
+
+    fn differs(why: impl Display) -> Self {
+        Self::with(Exit::Differs, why.to_string())
+    }
+
+    fn reported(exit: Exit) -> Self {
+        Self {
+            exit,
+            message: None,
+        }
+    }
+
+    fn with(exit: Exit, message: String) -> Self {
+        Self {
+            exit,
+            message: Some(message),
+        }
+    }
+}
+
+#[derive(Parser)]
+#[command(
+    name = "faithd",
+    version,
+    about = "Event-camera obstacle avoidance for small drones"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The main job, no hardware: the daemon flies a simulated quadrotor at a pole
+    /// against a simulated iNav over MAVLink, in closed loop and real time.
+    #[cfg(feature = "sim")]
+    Demo(simulate::DemoArgs),
+    /// The closed-loop avoidance experiment: many flights, success and false-avoidance rates.
+    #[cfg(feature = "sim")]
+    Sim(simulate::SimArgs),
+    /// Experiments on the built-in simulator.
+    #[cfg(feature = "sim")]
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
+    /// The flight daemon: camera, pipeline, safety gate and MAVLink to the autopilot.
+    Run(flight::RunArgs),
+    /// Recorded events (and attitude) through the same pipeline: one line per window.
+    Replay(flight::ReplayArgs),
+    /// Validate a config file: prints `ok` or the key and the reason it is refused.
+    CheckConfig {
+        /// Path to faithd.toml.
+        path: PathBuf,
+    },
+    /// Read the flight controller's set-up over its MSP port (`command.msp_endpoint`)
+    /// and say whether faithd's roll route can work, naming the iNav CLI line that
+    /// fixes each problem. Exit 0 when it can, 2 when it is refused, 1 when the flight
+    /// controller cannot be read. `faithd run` does the same check before its gate
+    /// can open.
+    CheckFc(flight::CheckFcArgs),
+}
+
+#[cfg(feature = "sim")]
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Table I of the paper: all four FOE methods on simulated flights.
+    Foe(simulate::BenchFoeArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let daemon = matches!(cli.command, Command::Run(_));
+    let _log = faithd::logging::init(default_log_filter(&cli.command));
+    let exit = match try_main(cli.command) {
+        Ok(()) => Exit::Ok,
+        Err(failure) => {
+            if let Some(message) = &failure.message {
+                // The daemon's story is in its log (the journal); the tools talk
+                // to a terminal.
+                if daemon {
+                    tracing::error!("{}", message.trim_start_matches("error: "));
+                } else {
+                    eprintln!("{message}");
+                }
+            }
+            failure.exit
+        }
+    };
+    ExitCode::from(exit as u8)
+}
+
+fn try_main(command: Command) -> Result<(), Failure> {
+    match command {
+        #[cfg(feature = "sim")]
+        Command::Demo(args) => simulate::demo(&args),
+        #[cfg(feature = "sim")]
+        Command::Sim(args) => simulate::sim(&args),
+        #[cfg(feature = "sim")]
+        Command::Bench {
+            what: BenchCommand::Foe(args),
+        } => simulate::bench_foe(&args),
+        Command::Run(args) => flight::run(&args),
+        Command::Replay(args) => flight::replay(&args),
+        Command::CheckConfig { path } => flight::check_config(&path),
+        Command::CheckFc(args) => flight::check_fc(&args),
+    }
+}
+
+/// What is logged unless RUST_LOG says otherwise.
+fn default_log_filter(command: &Command) -> &'static str {
+    match command {
+        // The experiment flies the daemon a hundred times: only its warnings.
+        #[cfg(feature = "sim")]
+        Command::Sim(_) => "warn",
+        // The demo shows the daemon's gate and manoeuvre lines, not every decision.
+        #[cfg(feature = "sim")]
+        Command::Demo(_) => "info,faithd::daemon::cycle=warn",
+        _ => "info",
+    }
+}
