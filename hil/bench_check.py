@@ -122,7 +122,7 @@ def main():
     p.add_argument("--warmup-s", type=float, default=1.0,
                    help="centre frames before the roll (iNav's MSP override recovery delay)")
     p.add_argument("--msp-device", required=True,
-                   help="the UART to iNav's MSP port (faithd's command.msp_endpoint)")
+                   help="the UART to iNav's MSP port (faithd's command.sink.endpoint)")
     p.add_argument("--non-interactive", action="store_true",
                    help="skip the prompts (switch test is then read, not guided)")
     p.add_argument("--report", default="hil-report.json")

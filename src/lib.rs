@@ -3,12 +3,12 @@
 //! iNav over MAVLink; decisions go back to iNav as timed roll overrides, only while
 //! the safety gate is open. Modules from the outside in (docs/design.md):
 
-#[cfg(feature = "sim")]
-pub mod closed_loop;
-pub mod command; // the roll sent to iNav (MSP RC override or MAVLink) and read back
 pub mod config; // faithd.toml: every setting, checked before anything opens
-pub mod daemon; // `faithd run`: the tasks, the 100 Hz cycle, the recorder
+pub mod source; // the DVS240 over libcaer, and its clock
 pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
-pub mod logging; // journal-friendly logs that never block the cycle
+pub mod command; // the roll sent to iNav (MSP RC override) and read back
+pub mod daemon; // `faithd run`: the tasks, the 100 Hz cycle, the recorder
 pub mod replay; // a recorded flight through the same pipeline, off line
-pub mod source; // the DVS240 over libcaer, and its clock // the daemon flying a simulated quadrotor against a simulated iNav
+pub mod logging; // journal-friendly logs that never block the cycle
+#[cfg(feature = "sim")]
+pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav

@@ -275,7 +275,8 @@ pub fn replay_window_log(
         serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
     let as_run = header.pipeline_as_run().map_err(|e| log_err(1, e))?;
     // The daemon's own checks, before anything is sized from it.
-    crate::config::validate_pipeline(&as_run)
+    as_run
+        .validate()
         .map_err(|inv| log_err(1, format!("header: `{}` {}", inv.key, inv.reason)))?;
     if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
         tracing::info!(

@@ -13,9 +13,10 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use common::{
-    Controls, Daemon, MockAutopilot, MspMock, TempDir, is_roll, point_symlink, poll_until,
-};
+use common::autopilot::{Controls, MockAutopilot};
+use common::daemon::Daemon;
+use common::msp::{MspMock, is_roll};
+use common::{TempDir, point_symlink, poll_until};
 
 /// The defaults the daemon runs with (config/faithd.toml).
 const SEND_PERIOD: Duration = Duration::from_millis(20);
@@ -280,7 +281,7 @@ fn both_ports_vanishing_and_returning_is_survived_and_released() {
     let mut daemon = Daemon::start(
         &format!("serial:{}", link.display()),
         &format!(
-            "[command]\nmsp_endpoint = \"serial:{}\"\n",
+            "[command.sink]\nkind = \"msp\"\nendpoint = \"serial:{}\"\n",
             msp_link.display()
         ),
     );
@@ -480,6 +481,32 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
         .map(|l| serde_json::from_str(l).unwrap())
         .collect();
     assert_eq!(lines.len(), logged_windows);
+
+    // The same window boundaries: each replayed window ends where the flight's did
+    // and holds the same events, and the flight took them by the one windowing rule
+    // (`window::events_until`): no window holds an event stamped after its end.
+    let logged: Vec<serde_json::Value> = std::fs::read_to_string(windows)
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let mut taken = 0usize;
+    for (replayed, flown) in lines.iter().zip(&logged) {
+        assert_eq!(replayed["t_us"], flown["t_us"]);
+        assert_eq!(replayed["events"], flown["events"]);
+        let (end_us, count) = (
+            flown["t_us"].as_i64().unwrap(),
+            flown["events"].as_u64().unwrap() as usize,
+        );
+        let due = faithd_core::window::events_until(&events[taken..], end_us);
+        assert!(
+            count <= due,
+            "the window ending at {end_us} us took {count} events, only {due} were due"
+        );
+        taken += count;
+    }
+    assert!(taken <= events.len());
     let derotated = lines.iter().filter(|l| l["derotated"] == true).count();
     assert!(
         derotated * 10 > lines.len() * 9,
@@ -541,10 +568,10 @@ fn a_simulated_camera_needs_the_command_line_opt_in() {
         "/config/faithd.toml"
     )))
     .unwrap();
-    assert_eq!(
-        shipped.source.kind,
-        faithd::daemon::source::SourceKind::Caer
-    );
+    assert!(matches!(
+        shipped.source,
+        faithd::daemon::source::SourceConfig::Caer(_)
+    ));
 }
 
 #[test]
@@ -682,7 +709,7 @@ fn a_journal_that_stops_reading_never_holds_up_a_roll() {
     std::fs::write(
         &config,
         format!(
-            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nsim_first_approach_us = 600000\nsim_repeat_us = 3000000\n[record]\nenabled = false\n",
+            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nfirst_approach_us = 600000\nrepeat_us = 3000000\n[record]\nenabled = false\n",
             mock.slave_path.display(),
             mock.command_toml()
         ),

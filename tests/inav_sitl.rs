@@ -11,7 +11,7 @@ mod common;
 
 use std::time::Duration;
 
-use common::Daemon;
+use common::daemon::Daemon;
 use common::sitl::*;
 
 /// faithd's defaults (config/faithd.toml).
@@ -52,8 +52,8 @@ impl Bench {
         Daemon::start_config(
             &format!(
                 "[mavlink]\nendpoint = \"{}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
-                 [command]\nmsp_endpoint = \"{}\"\n\
-                 [source]\nkind = \"sim\"\nsim_first_approach_us = {first_approach_us}\nsim_repeat_us = 4000000\n\
+                 [command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n\
+                 [source]\nkind = \"sim\"\nfirst_approach_us = {first_approach_us}\nrepeat_us = 4000000\n\
                  [record]\nenabled = false\n{extra}",
                 self.sitl.endpoint(UART_MAVLINK),
                 self.sitl.endpoint(UART_MSP_FAITHD),
@@ -409,7 +409,7 @@ fn an_msp_receiver_is_refused_and_never_streamed_to() {
     let before = monitor.latest().expect("a sample").rc;
     let bench_faithd = Daemon::start_config(
         &format!(
-            "[mavlink]\nendpoint = \"{}\"\n[command]\nmsp_endpoint = \"{}\"\n\
+            "[mavlink]\nendpoint = \"{}\"\n[command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n\
              [source]\nkind = \"sim\"\n[record]\nenabled = false\n",
             sitl.endpoint(UART_MAVLINK),
             sitl.endpoint(UART_MSP_FAITHD)
@@ -439,7 +439,7 @@ fn check_fc(sitl: &Sitl) -> (i32, String) {
     std::fs::write(
         &config,
         format!(
-            "[command]\nmsp_endpoint = \"{}\"\n",
+            "[command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n",
             sitl.endpoint(UART_MSP_FAITHD)
         ),
     )

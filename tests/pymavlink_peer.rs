@@ -13,7 +13,9 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
-use common::{Controls, Daemon, MspMock};
+use common::autopilot::Controls;
+use common::daemon::Daemon;
+use common::msp::{MspMock, is_roll};
 
 #[derive(serde::Deserialize)]
 struct Seen {
@@ -98,7 +100,7 @@ fn another_component_of_the_autopilots_system_cannot_open_the_gate() {
         .lock()
         .unwrap()
         .iter()
-        .filter(|(_, ch)| common::is_roll(ch[0]))
+        .filter(|(_, ch)| is_roll(ch[0]))
         .count();
     assert_eq!(rolls, 0);
 }

@@ -12,7 +12,8 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::Duration;
 
-use common::{Controls, MockAutopilot, TempDir, poll_until};
+use common::autopilot::{Controls, MockAutopilot};
+use common::{TempDir, poll_until};
 use faithd_formats::events::EventReader;
 use faithd_formats::events::aedat4::Aedat4Reader;
 use faithd_formats::tlog::TlogReader;

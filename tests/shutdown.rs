@@ -9,8 +9,8 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
-use common::{Controls, MockAutopilot};
-use faithd::daemon::source::run_sim;
+use common::autopilot::{Controls, MockAutopilot};
+use faithd::daemon::source::{SourceConfig, run_sim};
 use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve};
 
 /// Sets its flag when dropped: when the thread that owns it has ended.
@@ -28,7 +28,10 @@ fn a_requested_stop_joins_every_thread_before_serve_returns() {
     let (config, endpoint, msp_endpoint) = mock.serve_config("");
     let camera_ended = Arc::new(AtomicBool::new(false));
     let flag = camera_ended.clone();
-    let (source_config, camera) = (config.source.clone(), config.pipeline.camera);
+    let SourceConfig::Sim(source_config) = config.source.clone() else {
+        panic!("serve_config gives a simulated camera")
+    };
+    let camera = config.pipeline.camera;
     let hooks = Hooks {
         clock: DaemonClock::start(),
         source: Box::new(move |clock, batches| {

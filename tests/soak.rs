@@ -11,7 +11,8 @@ mod common;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::{Controls, MockAutopilot, TempDir};
+use common::TempDir;
+use common::autopilot::{Controls, MockAutopilot};
 
 /// (seconds since start, anonymous resident KiB, open descriptors)
 ///

@@ -9,18 +9,22 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use common::{Controls, MockAutopilot, is_roll};
-use faithd::daemon::source::run_sim;
+use common::autopilot::{Controls, MockAutopilot};
+use common::msp::is_roll;
+use faithd::daemon::source::{SourceConfig, run_sim};
 use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve, supervise};
 
 #[test]
 fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault() {
     supervise::install_panic_hook();
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
-    let (config, endpoint, msp_endpoint) = mock.serve_config("sim_first_approach_us = 600000\n");
+    let (config, endpoint, msp_endpoint) = mock.serve_config("first_approach_us = 600000\n");
     // The camera thread forwards the simulated camera until told to panic.
     let panic_now = Arc::new(AtomicBool::new(false));
-    let (source_config, camera) = (config.source.clone(), config.pipeline.camera);
+    let SourceConfig::Sim(source_config) = config.source.clone() else {
+        panic!("serve_config gives a simulated camera")
+    };
+    let camera = config.pipeline.camera;
     let trigger = panic_now.clone();
     let hooks = Hooks {
         clock: DaemonClock::start(),

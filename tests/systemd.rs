@@ -7,7 +7,9 @@ use std::os::unix::net::UnixDatagram;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use common::{Controls, Daemon, MockAutopilot, TempDir};
+use common::TempDir;
+use common::autopilot::{Controls, MockAutopilot};
+use common::daemon::Daemon;
 
 #[test]
 fn unit_file_passes_systemd_analyze_verify() {

@@ -13,7 +13,7 @@ fuzz_target!(|data: &[u8]| {
     let mut lines = text.lines();
     if let Some(Ok(header)) = lines.next().map(serde_json::from_str::<WindowLogHeader>) {
         if let Ok(pipeline) = header.pipeline_as_run() {
-            let _ = faithd::config::validate_pipeline(&pipeline);
+            let _ = pipeline.validate();
         }
     }
     for line in lines.take(1000) {

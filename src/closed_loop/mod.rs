@@ -16,10 +16,11 @@ use std::sync::Arc;
 use serde::Serialize;
 use tokio::sync::mpsc;
 
+use crate::command::{MspSink, Sink};
 use crate::config::FaithdConfig;
 use crate::daemon::clock::DaemonClock;
 use crate::daemon::{self, Hooks, Observation};
-use crate::link::endpoint::Endpoint;
+use crate::link::endpoint::Address;
 use physics::{PathPoint, Shared, VEHICLE_RADIUS_M};
 
 /// One flight to fly.
@@ -129,12 +130,14 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     tokio::spawn(autopilot::run_msp(msp, shared.clone(), clock));
 
     let mut config = FaithdConfig::default();
-    config.mavlink.endpoint = format!("udpout:127.0.0.1:{port}");
-    config.command.msp_endpoint = format!("tcp:127.0.0.1:{msp_port}");
+    config.mavlink.endpoint = Address::UdpOut(([127, 0, 0, 1], port).into());
+    config.command.sink = Sink::Msp(MspSink {
+        endpoint: Address::Tcp(format!("127.0.0.1:{msp_port}")),
+        ..MspSink::default()
+    });
     // Simulated flights are not recorded.
     config.record.enabled = false;
-    let endpoint = Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud)
-        .map_err(std::io::Error::other)?;
+    let endpoint = config.mavlink.port();
     let (obs_tx, mut obs_rx) = mpsc::unbounded_channel();
     let source_spec = spec.clone();
     let source_shared = shared.clone();
@@ -147,8 +150,7 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     };
     let start_us = clock.now_us();
     let done = shared.clone();
-    let msp_endpoint = Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud)
-        .map_err(std::io::Error::other)?;
+    let msp_endpoint = config.command.msp_port();
     daemon::serve(config, endpoint, msp_endpoint, hooks, async move {
         done.done.notified().await;
         "the flight ended"

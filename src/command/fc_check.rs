@@ -8,6 +8,8 @@
 
 use std::time::Duration;
 
+use faithd_core::safety::gate::FIRST_AUX_CHANNEL;
+
 use super::msp_port::{self, MspError, MspPort};
 
 /// iNav's mode ids (fc/fc_msp_box.c, permanent ids).
@@ -16,8 +18,6 @@ const MODE_FAILSAFE: u8 = 27;
 const MODE_MSP_RC_OVERRIDE: u8 = 50;
 /// fc/runtime_config.h: ARMED in MSP2_INAV_STATUS's arming flags.
 const ARMING_FLAG_ARMED: u32 = 1 << 2;
-/// iNav's first AUX channel is channel 5 (four flight channels before it).
-const FIRST_AUX_CHANNEL: u8 = 5;
 /// iNav's telemetry task ticks at 50 Hz (telemetry/mavlink.c, TELEMETRY_MAVLINK_MAXRATE).
 const MAVLINK_TICK_US: i64 = 20_000;
 /// rx/rx.h and flight/failsafe.h: PERIOD_RXDATA_RECOVERY and PERIOD_RXDATA_FAILURE.
@@ -144,9 +144,9 @@ pub struct Expectations {
 impl Expectations {
     pub fn from_config(c: &crate::config::FaithdConfig) -> Self {
         Self {
-            switch_channel: c.gate.switch_channel,
-            auto_min_us: c.gate.auto_min_us,
-            auto_max_us: c.gate.auto_max_us,
+            switch_channel: c.gate.switch_channel.get(),
+            auto_min_us: c.gate.auto_min_us.us(),
+            auto_max_us: c.gate.auto_max_us.us(),
             attitude_stale_us: c.gate.attitude_stale_us,
             rc_stale_us: c.gate.rc_stale_us,
             autopilot_system_id: c.mavlink.autopilot_system_id,
@@ -570,12 +570,9 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
     })
 }
 
-/// `faithd check-fc`: opens `command.msp_endpoint`, reads and judges the set-up.
+/// `faithd check-fc`: opens `command.sink.endpoint`, reads and judges the set-up.
 pub fn check_over_msp(config: &crate::config::FaithdConfig) -> Result<FcReport, String> {
-    let endpoint = crate::link::endpoint::Endpoint::parse(
-        &config.command.msp_endpoint,
-        config.command.msp_baud,
-    )?;
+    let endpoint = config.command.msp_port();
     let timeout = Duration::from_micros(config.command.msp_timeout_us.max(1) as u64);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()

@@ -5,7 +5,7 @@
 //! ([`fc_check`]). RC_CHANNELS_OVERRIDE over MAVLink does not work beside a pilot's
 //! radio (iNav reads it only when MAVLink *is* the receiver, and then the pilot's
 //! and faithd's frames take turns per channel, with no release), so
-//! `sink = "mavlink"` is refused with that reason.
+//! `[command.sink] kind = "mavlink"` is refused with that reason.
 
 pub mod fc_check;
 pub mod msp;
@@ -14,26 +14,75 @@ pub mod stream;
 
 use serde::{Deserialize, Serialize};
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SinkKind {
-    /// Refused: kept so that an old config gets the reason, not "unknown variant".
-    Mavlink,
-    #[default]
-    Msp,
+use crate::link::endpoint::{Address, Endpoint};
+use faithd_core::invalid::{Invalid, check};
+
+/// Why `kind = "mavlink"` is refused, measured on iNav 9.1 SITL.
+pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel (the roll was in effect in 37-62% of samples) and 0/65535 cannot release it; use kind = \"msp\" (README, Setting up iNav)";
+
+/// How rolls reach iNav: `[command.sink]`, a `kind` and that kind's own settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "SinkTable", into = "SinkTable")]
+pub enum Sink {
+    /// iNav's MSP RC override on a UART of its own (the only route that flies).
+    Msp(MspSink),
 }
 
-/// Why `sink = "mavlink"` is refused, measured on iNav 9.1 SITL.
-pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel (the roll was in effect in 37-62% of samples) and 0/65535 cannot release it; use sink = \"msp\" (README, Setting up iNav)";
+impl Default for Sink {
+    fn default() -> Self {
+        Sink::Msp(MspSink::default())
+    }
+}
+
+/// `kind = "msp"`: the UART to iNav's MSP port.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MspSink {
+    pub endpoint: Address,
+    pub baud: u32,
+}
+
+impl Default for MspSink {
+    fn default() -> Self {
+        Self {
+            endpoint: Address::Serial("/dev/ttyAMA1".into()),
+            baud: 115_200,
+        }
+    }
+}
+
+/// `[command.sink]` as written. A MAVLink sink is read only to be refused with the
+/// reason (an old config gets that, not "unknown variant"); [`Sink`] cannot hold one.
+#[derive(Clone, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+enum SinkTable {
+    Msp(MspSink),
+    Mavlink {},
+}
+
+impl TryFrom<SinkTable> for Sink {
+    type Error = String;
+
+    fn try_from(table: SinkTable) -> Result<Self, String> {
+        match table {
+            SinkTable::Msp(msp) => Ok(Sink::Msp(msp)),
+            SinkTable::Mavlink {} => Err(format!("kind \"mavlink\" {MAVLINK_SINK_REFUSED}")),
+        }
+    }
+}
+
+impl From<Sink> for SinkTable {
+    fn from(sink: Sink) -> Self {
+        match sink {
+            Sink::Msp(msp) => SinkTable::Msp(msp),
+        }
+    }
+}
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CommandConfig {
-    /// "msp": iNav's MSP RC override on a UART of its own (the only route that flies).
-    pub sink: SinkKind,
-    /// UART of the MSP stream and its baud rate.
-    pub msp_endpoint: String,
-    pub msp_baud: u32,
+    pub sink: Sink,
     /// A roll that iNav does not report using (MSP_RC) within this is a fault: the
     /// journal says so and the gate closes until the pilot leaves AUTO.
     pub confirm_within_us: i64,
@@ -46,12 +95,42 @@ pub struct CommandConfig {
 impl Default for CommandConfig {
     fn default() -> Self {
         Self {
-            sink: SinkKind::Msp,
-            msp_endpoint: "serial:/dev/ttyAMA1".into(),
-            msp_baud: 115_200,
+            sink: Sink::default(),
             confirm_within_us: 200_000,
             msp_timeout_us: 500_000,
             warmup_margin_us: 100_000,
         }
+    }
+}
+
+impl CommandConfig {
+    /// The port of the MSP stream.
+    pub fn msp_port(&self) -> Endpoint {
+        let Sink::Msp(msp) = &self.sink;
+        Endpoint::new(msp.endpoint.clone(), msp.baud)
+    }
+
+    /// `[command]`: the sink's baud rate and the stream's timings.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let Sink::Msp(msp) = &self.sink;
+        check(msp.baud >= 1200, "command.sink.baud", || {
+            format!("must be a serial baud rate, got {}", msp.baud)
+        })?;
+        let cmd = self;
+        check(
+            (20_000..=1_000_000).contains(&cmd.confirm_within_us),
+            "command.confirm_within_us",
+            || format!("must be 20 ms to 1 s, got {}", cmd.confirm_within_us),
+        )?;
+        check(
+            (10_000..=5_000_000).contains(&cmd.msp_timeout_us),
+            "command.msp_timeout_us",
+            || format!("must be 10 ms to 5 s, got {}", cmd.msp_timeout_us),
+        )?;
+        check(
+            (0..=5_000_000).contains(&cmd.warmup_margin_us),
+            "command.warmup_margin_us",
+            || format!("must be 0 to 5 s, got {}", cmd.warmup_margin_us),
+        )
     }
 }

@@ -40,6 +40,7 @@ use clock::DaemonClock;
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::Action;
 use faithd_core::event::Event;
+use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::confirm::{RollConfirm, Verdict};
 use faithd_core::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
 use faithd_core::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
@@ -68,6 +69,41 @@ impl Default for DaemonConfig {
             shed_min_iterations: 13,
             event_stale_us: 200_000,
         }
+    }
+}
+
+impl DaemonConfig {
+    /// `[daemon]`: a period of 1 to 100 ms and a budget within it.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let d = self;
+        check(
+            (1000..=100_000).contains(&d.period_us),
+            "daemon.period_us",
+            || format!("must be 1 to 100 ms, got {}", d.period_us),
+        )?;
+        check(
+            d.budget_us > 0 && d.budget_us <= d.period_us,
+            "daemon.budget_us",
+            || {
+                format!(
+                    "must be positive and at most period_us, got {}",
+                    d.budget_us
+                )
+            },
+        )?;
+        check(d.shed_min_vectors >= 1, "daemon.shed_min_vectors", || {
+            "must be at least 1".into()
+        })?;
+        check(
+            d.shed_min_iterations >= 1,
+            "daemon.shed_min_iterations",
+            || "must be at least 1".into(),
+        )?;
+        check(
+            (1000..=10_000_000).contains(&d.event_stale_us),
+            "daemon.event_stale_us",
+            || format!("must be 1 ms to 10 s, got {}", d.event_stale_us),
+        )
     }
 }
 
@@ -107,24 +143,14 @@ pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faith
 
 /// Runs the daemon until SIGINT, SIGTERM or SIGHUP.
 pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError> {
-    if config.source.kind == source::SourceKind::Sim && !options.simulated_camera {
+    if matches!(config.source, source::SourceConfig::Sim(_)) && !options.simulated_camera {
         return Err(DaemonError::Config {
             key: "source.kind",
             reason: SIM_SOURCE_REFUSED.into(),
         });
     }
-    let endpoint =
-        Endpoint::parse(&config.mavlink.endpoint, config.mavlink.baud).map_err(|reason| {
-            DaemonError::Config {
-                key: "mavlink.endpoint",
-                reason,
-            }
-        })?;
-    let msp_endpoint = Endpoint::parse(&config.command.msp_endpoint, config.command.msp_baud)
-        .map_err(|reason| DaemonError::Config {
-            key: "command.msp_endpoint",
-            reason,
-        })?;
+    let endpoint = config.mavlink.port();
+    let msp_endpoint = config.command.msp_port();
     supervise::install_panic_hook();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
@@ -132,17 +158,16 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
         .build()
         .map_err(DaemonError::Runtime)?;
     let clock = DaemonClock::start();
-    let (source_config, camera) = (config.source.clone(), config.pipeline.camera);
-    let source: SourceFn = match source_config.kind {
-        source::SourceKind::Sim => {
+    let camera = config.pipeline.camera;
+    let source: SourceFn = match config.source.clone() {
+        source::SourceConfig::Sim(sim) => {
             tracing::warn!(
                 "SIMULATED CAMERA (--simulated-camera): every roll faithd commands comes from generated events, not from the world; never fly like this"
             );
-            Box::new(move |clock, batches| source::run_sim(source_config, camera, clock, batches))
+            Box::new(move |clock, batches| source::run_sim(sim, camera, clock, batches))
         }
-        source::SourceKind::Caer => {
-            let path = (!source_config.libcaer_path.is_empty())
-                .then_some(source_config.libcaer_path.as_str());
+        source::SourceConfig::Caer(caer) => {
+            let path = (!caer.libcaer_path.is_empty()).then_some(caer.libcaer_path.as_str());
             let lib = libcaer_sys::Libcaer::load(path).map_err(|e| DaemonError::Config {
                 key: "source.libcaer_path",
                 reason: format!(
@@ -157,7 +182,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
             Box::new(move |clock, batches| {
                 if let Err(e) = crate::source::caer::run(
                     &lib,
-                    source_config.caer_settings,
+                    caer.caer_settings,
                     sensor,
                     clock,
                     batches,
@@ -231,7 +256,7 @@ pub async fn serve(
     tracing::info!(
         version = env!("CARGO_PKG_VERSION"),
         %endpoint,
-        sink = ?config.command.sink,
+        msp = %msp_endpoint,
         period_us = config.daemon.period_us,
         "faithd starting"
     );
@@ -376,7 +401,7 @@ pub async fn serve(
 fn stream_settings(config: &FaithdConfig) -> StreamSettings {
     let us = |v: i64| Duration::from_micros(v.max(1) as u64);
     StreamSettings {
-        neutral_us: config.manoeuvre.neutral_us,
+        neutral_us: config.manoeuvre.neutral_us.us(),
         period: us(config.manoeuvre.resend_period_us),
         reply_timeout: us(config.command.msp_timeout_us),
         warmup_margin_us: config.command.warmup_margin_us,
@@ -417,7 +442,7 @@ async fn release_on_exit(
         return;
     };
     tracing::error!("roll channel release through the stream failed ({why}): writing it directly");
-    match stream::release_directly(endpoint, facts, manoeuvre.neutral_us, repeats).await {
+    match stream::release_directly(endpoint, facts, manoeuvre.neutral_us.us(), repeats).await {
         Ok(n) => tracing::info!("roll channel released: {n} centre frames written to iNav"),
         Err(e) => tracing::error!(
             "roll channel release not written ({e}): iNav keeps faithd's last value until its MSP override times out"
@@ -591,7 +616,7 @@ async fn commander_task(
             tracing::debug!(?cmd, "command");
             let held_us = match cmd {
                 Command::Roll { value_us, .. } => value_us,
-                Command::Release { .. } => config.manoeuvre.neutral_us,
+                Command::Release { .. } => config.manoeuvre.neutral_us.us(),
             };
             stream
                 .held

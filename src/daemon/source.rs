@@ -10,44 +10,64 @@ use serde::{Deserialize, Serialize};
 use super::clock::DaemonClock;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
+use faithd_core::invalid::{Invalid, check};
 use faithd_core::synth::{LoomingEdges, looming_edge_events};
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SourceKind {
+/// Where events come from: `[source]`, a `kind` and that kind's own settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum SourceConfig {
     /// The DVS240/DAVIS240 on USB through libcaer (opened at run time).
-    #[default]
-    Caer,
+    Caer(CaerSource),
     /// Generated approaches to a pole, played in real time: the bench and tests only,
     /// and `faithd run` takes it only with `--simulated-camera`.
-    Sim,
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SourceConfig {
-    pub kind: SourceKind,
-    /// caer: where libcaer is; empty = the system loader's search for libcaer.so.3.
-    pub libcaer_path: String,
-    /// caer: libcaer settings applied after its defaults, as [module, parameter,
-    /// value] (biases and filters; see libcaer's davis.h for the addresses).
-    pub caer_settings: Vec<(i8, u8, u32)>,
-    /// sim: daemon time of the first approach, and the period between approaches.
-    pub sim_first_approach_us: i64,
-    pub sim_repeat_us: i64,
-    /// sim: seed of the generated events.
-    pub sim_seed: u64,
+    Sim(SimSource),
 }
 
 impl Default for SourceConfig {
     fn default() -> Self {
+        SourceConfig::Caer(CaerSource::default())
+    }
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CaerSource {
+    /// Where libcaer is; empty = the system loader's search for libcaer.so.3.
+    pub libcaer_path: String,
+    /// libcaer settings applied after its defaults, as [module, parameter, value]
+    /// (biases and filters; see libcaer's davis.h for the addresses).
+    pub caer_settings: Vec<(i8, u8, u32)>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimSource {
+    /// Daemon time of the first approach, and the period between approaches.
+    pub first_approach_us: u64,
+    pub repeat_us: u64,
+    /// Seed of the generated events.
+    pub seed: u64,
+}
+
+impl Default for SimSource {
+    fn default() -> Self {
         Self {
-            kind: SourceKind::Caer,
-            libcaer_path: String::new(),
-            caer_settings: Vec::new(),
-            sim_first_approach_us: 1_000_000,
-            sim_repeat_us: 5_000_000,
-            sim_seed: 1,
+            first_approach_us: 1_000_000,
+            repeat_us: 5_000_000,
+            seed: 1,
+        }
+    }
+}
+
+impl SourceConfig {
+    /// `[source]`: a simulated camera repeats its approach at most once a second.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        match self {
+            SourceConfig::Caer(_) => Ok(()),
+            SourceConfig::Sim(sim) => check(sim.repeat_us >= 1_000_000, "source.repeat_us", || {
+                format!("must be at least 1 s, got {}", sim.repeat_us)
+            }),
         }
     }
 }
@@ -57,7 +77,7 @@ const BATCH_PERIOD: Duration = Duration::from_millis(2);
 
 /// Runs the sim source on the calling thread until the receiver is gone.
 pub fn run_sim(
-    config: SourceConfig,
+    config: SimSource,
     camera: CameraIntrinsics,
     clock: DaemonClock,
     batches: SyncSender<Vec<Event>>,
@@ -66,16 +86,18 @@ pub fn run_sim(
     scene.duration_s = 0.8;
     scene.noise_rate_hz = 0.5;
     scene.jitter_us = 100.0;
-    let approach = looming_edge_events(&camera, &scene, config.sim_seed);
+    let approach = looming_edge_events(&camera, &scene, config.seed);
     let approach_us = (scene.duration_s * 1e6) as i64;
-    let repeat_us = config.sim_repeat_us.max(approach_us + 1);
+    let repeat_us = i64::try_from(config.repeat_us)
+        .unwrap_or(i64::MAX)
+        .max(approach_us + 1);
     tracing::info!(
         events = approach.len(),
-        first_us = config.sim_first_approach_us,
+        first_us = config.first_approach_us,
         repeat_us,
         "sim camera: approaches to a pole"
     );
-    let mut start_us = config.sim_first_approach_us;
+    let mut start_us = i64::try_from(config.first_approach_us).unwrap_or(i64::MAX);
     let mut next = 0usize;
     let mut dropped = 0u64;
     let mut drop_log = super::cycle::Throttle::new(5_000_000);

@@ -43,10 +43,15 @@ pub async fn write_bounded(
         })
 }
 
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Endpoint {
-    /// A UART (or USB CDC) device, at a baud rate.
-    Serial { path: PathBuf, baud: u32 },
+/// Where a port is, as faithd.toml writes it: `serial:/dev/ttyAMA0`,
+/// `tcp:127.0.0.1:5760`, `udp:0.0.0.0:14550`, `udp:0.0.0.0:14550@192.168.1.10:14550`
+/// or `udpout:192.168.1.10:14550`; a bare absolute path is a serial device. Parsed
+/// once, when the file is read: a config holds an address that can be opened.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub enum Address {
+    /// A UART (or USB CDC) device.
+    Serial(PathBuf),
     /// Connect to host:port (a simulator or a serial-to-TCP bridge).
     Tcp(String),
     /// Listen on an address. The peer is the configured one (`udp:BIND:PORT@PEER:PORT`),
@@ -60,11 +65,8 @@ pub enum Endpoint {
     UdpOut(SocketAddr),
 }
 
-impl Endpoint {
-    /// Parses `serial:/dev/ttyAMA0`, `tcp:127.0.0.1:5760`, `udp:0.0.0.0:14550`,
-    /// `udp:0.0.0.0:14550@192.168.1.10:14550` or `udpout:192.168.1.10:14550`; a bare
-    /// path is a serial device.
-    pub fn parse(text: &str, baud: u32) -> Result<Self, String> {
+impl Address {
+    pub fn parse(text: &str) -> Result<Self, String> {
         let (scheme, rest) = match text.split_once(':') {
             Some((s, r)) if ["serial", "tcp", "udp", "udpout"].contains(&s) => (s, r),
             _ if text.starts_with('/') => ("serial", text),
@@ -79,31 +81,76 @@ impl Endpoint {
                 .map_err(|e| format!("`{r}` is not an IP address and port: {e}"))
         };
         match scheme {
-            "serial" if rest.starts_with('/') => Ok(Endpoint::Serial {
-                path: PathBuf::from(rest),
-                baud,
-            }),
+            "serial" if rest.starts_with('/') => Ok(Address::Serial(PathBuf::from(rest))),
             "serial" => Err(format!("serial device `{rest}` must be an absolute path")),
             "tcp"
                 if rest
                     .rsplit_once(':')
                     .is_some_and(|(_, p)| p.parse::<u16>().is_ok()) =>
             {
-                Ok(Endpoint::Tcp(rest.to_owned()))
+                Ok(Address::Tcp(rest.to_owned()))
             }
             "tcp" => Err(format!("`{rest}` is not HOST:PORT")),
             "udp" => match rest.split_once('@') {
-                Some((bind, peer)) => Ok(Endpoint::UdpListen {
+                Some((bind, peer)) => Ok(Address::UdpListen {
                     bind: addr(bind)?,
                     peer: Some(addr(peer)?),
                 }),
-                None => Ok(Endpoint::UdpListen {
+                None => Ok(Address::UdpListen {
                     bind: addr(rest)?,
                     peer: None,
                 }),
             },
-            _ => addr(rest).map(Endpoint::UdpOut),
+            _ => addr(rest).map(Address::UdpOut),
         }
+    }
+}
+
+impl TryFrom<String> for Address {
+    type Error = String;
+
+    fn try_from(text: String) -> Result<Self, String> {
+        Address::parse(&text)
+    }
+}
+
+impl From<Address> for String {
+    fn from(address: Address) -> String {
+        address.to_string()
+    }
+}
+
+/// The form faithd.toml writes, which [`Address::parse`] reads back.
+impl std::fmt::Display for Address {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Address::Serial(path) => write!(f, "serial:{}", path.display()),
+            Address::Tcp(a) => write!(f, "tcp:{a}"),
+            Address::UdpListen { bind, peer: None } => write!(f, "udp:{bind}"),
+            Address::UdpListen {
+                bind,
+                peer: Some(p),
+            } => write!(f, "udp:{bind}@{p}"),
+            Address::UdpOut(a) => write!(f, "udpout:{a}"),
+        }
+    }
+}
+
+/// A port to open: its address and, for a serial device, the baud rate.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Endpoint {
+    pub address: Address,
+    pub baud: u32,
+}
+
+impl Endpoint {
+    pub fn new(address: Address, baud: u32) -> Self {
+        Self { address, baud }
+    }
+
+    /// [`Address::parse`] with a baud rate (for tests and tools).
+    pub fn parse(text: &str, baud: u32) -> Result<Self, String> {
+        Address::parse(text).map(|address| Self::new(address, baud))
     }
 
     /// Opens the endpoint within [`OPEN_TIMEOUT`].
@@ -123,21 +170,21 @@ impl Endpoint {
     }
 
     async fn open_unbounded(&self) -> std::io::Result<BoxedTransport> {
-        match self {
-            Endpoint::Serial { path, baud } => {
+        match &self.address {
+            Address::Serial(path) => {
                 use tokio_serial::SerialPort;
                 let path = path.to_string_lossy();
-                let port = tokio_serial::SerialStream::open(&tokio_serial::new(path, *baud))?;
+                let port = tokio_serial::SerialStream::open(&tokio_serial::new(path, self.baud))?;
                 port.clear(tokio_serial::ClearBuffer::Input)?;
                 Ok(Box::pin(port))
             }
-            Endpoint::Tcp(addr) => {
+            Address::Tcp(addr) => {
                 let stream = tokio::net::TcpStream::connect(addr).await?;
                 stream.set_nodelay(true)?;
                 Ok(Box::pin(stream))
             }
-            Endpoint::UdpListen { bind, peer } => udp_stream(*bind, *peer).await,
-            Endpoint::UdpOut(peer) => {
+            Address::UdpListen { bind, peer } => udp_stream(*bind, *peer).await,
+            Address::UdpOut(peer) => {
                 let any: SocketAddr = if peer.is_ipv4() {
                     "0.0.0.0:0".parse().expect("literal address")
                 } else {
@@ -151,19 +198,19 @@ impl Endpoint {
 
 impl std::fmt::Display for Endpoint {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Endpoint::Serial { path, baud } => {
-                write!(f, "serial {} at {baud} baud", path.display())
+        match &self.address {
+            Address::Serial(path) => {
+                write!(f, "serial {} at {} baud", path.display(), self.baud)
             }
-            Endpoint::Tcp(a) => write!(f, "tcp {a}"),
-            Endpoint::UdpListen { bind, peer: None } => {
+            Address::Tcp(a) => write!(f, "tcp {a}"),
+            Address::UdpListen { bind, peer: None } => {
                 write!(f, "udp listening on {bind}, locked to the first peer")
             }
-            Endpoint::UdpListen {
+            Address::UdpListen {
                 bind,
                 peer: Some(p),
             } => write!(f, "udp listening on {bind}, peer {p}"),
-            Endpoint::UdpOut(a) => write!(f, "udp to {a}"),
+            Address::UdpOut(a) => write!(f, "udp to {a}"),
         }
     }
 }
@@ -225,33 +272,30 @@ mod tests {
     fn parses_every_form_and_names_the_problem() {
         assert_eq!(
             Endpoint::parse("serial:/dev/ttyAMA0", 115_200).unwrap(),
-            Endpoint::Serial {
-                path: "/dev/ttyAMA0".into(),
-                baud: 115_200
-            }
+            Endpoint::new(Address::Serial("/dev/ttyAMA0".into()), 115_200)
+        );
+        assert_eq!(
+            Address::parse("/dev/ttyACM0").unwrap(),
+            Address::Serial("/dev/ttyACM0".into())
+        );
+        assert_eq!(
+            Address::parse("tcp:localhost:5760").unwrap(),
+            Address::Tcp("localhost:5760".into())
         );
         assert!(matches!(
-            Endpoint::parse("/dev/ttyACM0", 57_600).unwrap(),
-            Endpoint::Serial { baud: 57_600, .. }
+            Address::parse("udp:0.0.0.0:14550").unwrap(),
+            Address::UdpListen { peer: None, .. }
         ));
         assert_eq!(
-            Endpoint::parse("tcp:localhost:5760", 0).unwrap(),
-            Endpoint::Tcp("localhost:5760".into())
-        );
-        assert!(matches!(
-            Endpoint::parse("udp:0.0.0.0:14550", 0).unwrap(),
-            Endpoint::UdpListen { peer: None, .. }
-        ));
-        assert_eq!(
-            Endpoint::parse("udp:127.0.0.1:14550@127.0.0.1:14551", 0).unwrap(),
-            Endpoint::UdpListen {
+            Address::parse("udp:127.0.0.1:14550@127.0.0.1:14551").unwrap(),
+            Address::UdpListen {
                 bind: "127.0.0.1:14550".parse().unwrap(),
                 peer: Some("127.0.0.1:14551".parse().unwrap())
             }
         );
         assert!(matches!(
-            Endpoint::parse("udpout:127.0.0.1:14550", 0).unwrap(),
-            Endpoint::UdpOut(_)
+            Address::parse("udpout:127.0.0.1:14550").unwrap(),
+            Address::UdpOut(_)
         ));
         for bad in [
             "ttyS0",
@@ -261,8 +305,23 @@ mod tests {
             "udp:0.0.0.0:1@nowhere",
             "ftp:x",
         ] {
-            let err = Endpoint::parse(bad, 0).unwrap_err();
+            let err = Address::parse(bad).unwrap_err();
             assert!(!err.is_empty(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn an_address_reads_back_as_written() {
+        for text in [
+            "serial:/dev/ttyAMA0",
+            "tcp:localhost:5760",
+            "udp:0.0.0.0:14550",
+            "udp:127.0.0.1:14550@127.0.0.1:14551",
+            "udpout:[::1]:14550",
+        ] {
+            let address = Address::parse(text).unwrap();
+            assert_eq!(address.to_string(), text);
+            assert_eq!(Address::parse(&address.to_string()).unwrap(), address);
         }
     }
 
@@ -288,7 +347,7 @@ mod tests {
         let probe = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
         let bind = probe.local_addr().unwrap();
         drop(probe);
-        let mut session = Endpoint::UdpListen { bind, peer: None }
+        let mut session = Endpoint::new(Address::UdpListen { bind, peer: None }, 0)
             .open()
             .await
             .unwrap();
@@ -322,7 +381,7 @@ mod tests {
     async fn udpout_hears_only_its_peer() {
         let autopilot = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
         let stranger = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
-        let mut session = Endpoint::UdpOut(autopilot.local_addr().unwrap())
+        let mut session = Endpoint::new(Address::UdpOut(autopilot.local_addr().unwrap()), 0)
             .open()
             .await
             .unwrap();

@@ -20,8 +20,9 @@ use tokio::sync::{mpsc, watch};
 use crate::daemon::clock::DaemonClock;
 use crate::daemon::supervise::Heartbeat;
 use clock_sync::ClockSync;
-use endpoint::{BoxedTransport, Endpoint};
+use endpoint::{Address, BoxedTransport, Endpoint};
 use faithd_core::attitude::AttitudeLog;
+use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::vehicle::VehicleState;
 use telemetry::Update;
 
@@ -29,7 +30,7 @@ use telemetry::Update;
 #[serde(deny_unknown_fields, default)]
 pub struct MavlinkConfig {
     /// `serial:/dev/ttyAMA0`, `tcp:HOST:PORT`, `udp:BIND:PORT` or `udpout:HOST:PORT`.
-    pub endpoint: String,
+    pub endpoint: Address,
     /// Serial baud rate (iNav's MAVLink port default is 115200).
     pub baud: u32,
     /// faithd's own system id: the autopilot's, as a component of the same vehicle.
@@ -54,7 +55,7 @@ pub struct MavlinkConfig {
 impl Default for MavlinkConfig {
     fn default() -> Self {
         Self {
-            endpoint: "serial:/dev/ttyAMA0".into(),
+            endpoint: Address::Serial("/dev/ttyAMA0".into()),
             baud: 115_200,
             system_id: 1,
             component_id: 191,
@@ -65,6 +66,58 @@ impl Default for MavlinkConfig {
             reconnect_max_us: 2_000_000,
             silence_timeout_us: 1_500_000,
         }
+    }
+}
+
+impl MavlinkConfig {
+    /// The port to the autopilot.
+    pub fn port(&self) -> Endpoint {
+        Endpoint::new(self.endpoint.clone(), self.baud)
+    }
+
+    /// `[mavlink]`: ids, periods and timeouts the link can keep.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let m = self;
+        check(m.baud >= 1200, "mavlink.baud", || {
+            format!("must be a serial baud rate, got {}", m.baud)
+        })?;
+        check(m.system_id >= 1, "mavlink.system_id", || {
+            "must be 1 to 255".into()
+        })?;
+        check(m.component_id >= 1, "mavlink.component_id", || {
+            "must be 1 to 255".into()
+        })?;
+        check(
+            m.autopilot_system_id >= 1,
+            "mavlink.autopilot_system_id",
+            || "must be 1 to 255".into(),
+        )?;
+        check(
+            m.autopilot_component_id >= 1,
+            "mavlink.autopilot_component_id",
+            || "must be 1 to 255 (iNav's is 1, MAV_COMP_ID_AUTOPILOT1)".into(),
+        )?;
+        check(
+            (10_000..=10_000_000).contains(&m.heartbeat_period_us),
+            "mavlink.heartbeat_period_us",
+            || format!("must be 10 ms to 10 s, got {}", m.heartbeat_period_us),
+        )?;
+        check(
+            m.reconnect_min_us >= 1000 && m.reconnect_min_us <= m.reconnect_max_us,
+            "mavlink.reconnect_min_us",
+            || "must be at least 1 ms and at most reconnect_max_us".into(),
+        )?;
+        check(
+            m.reconnect_max_us <= 60_000_000,
+            "mavlink.reconnect_max_us",
+            || format!("must be at most 60 s, got {}", m.reconnect_max_us),
+        )?;
+        check(
+            (100_000..=60_000_000).contains(&m.silence_timeout_us),
+            "mavlink.silence_timeout_us",
+            || format!("must be 100 ms to 60 s, got {}", m.silence_timeout_us),
+        )?;
+        Ok(())
     }
 }
 

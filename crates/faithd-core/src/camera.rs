@@ -3,6 +3,8 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check, positive};
+
 /// Pinhole model of the sensor in pixels.
 ///
 /// Derotation needs it to turn body rates into image motion, and the FOE needs it to
@@ -22,6 +24,46 @@ pub struct CameraIntrinsics {
 impl Default for CameraIntrinsics {
     fn default() -> Self {
         Self::dvs240()
+    }
+}
+
+impl CameraIntrinsics {
+    /// The sensor size bounds the per-pixel buffers; the principal point lies on it.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let cam = self;
+        check(
+            (8..=2048).contains(&cam.width_px) && (8..=2048).contains(&cam.height_px),
+            "pipeline.camera.width_px",
+            || {
+                format!(
+                    "sensor must be 8x8 to 2048x2048 px (event surfaces are allocated per pixel), got {}x{}",
+                    cam.width_px, cam.height_px
+                )
+            },
+        )?;
+        positive(cam.fx_px, "pipeline.camera.fx_px")?;
+        positive(cam.fy_px, "pipeline.camera.fy_px")?;
+        check(
+            cam.cx_px.is_finite() && (0.0..f64::from(cam.width_px)).contains(&cam.cx_px),
+            "pipeline.camera.cx_px",
+            || {
+                format!(
+                    "must lie on the sensor (0..{}), got {}",
+                    cam.width_px, cam.cx_px
+                )
+            },
+        )?;
+        check(
+            cam.cy_px.is_finite() && (0.0..f64::from(cam.height_px)).contains(&cam.cy_px),
+            "pipeline.camera.cy_px",
+            || {
+                format!(
+                    "must lie on the sensor (0..{}), got {}",
+                    cam.height_px, cam.cy_px
+                )
+            },
+        )?;
+        Ok(())
     }
 }
 

@@ -16,6 +16,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check, non_negative, positive};
+
 use crate::cluster::ClusterStats;
 use crate::foe::FoeEstimate;
 
@@ -97,6 +99,66 @@ impl Default for DecisionConfig {
             min_ttc_s: 0.25,
             expansion_margin: 0.2,
         }
+    }
+}
+
+impl DecisionConfig {
+    /// `[pipeline.decision]`: thresholds, the confirmation span and the obstacle's size.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let de = self;
+        positive(de.ttc_threshold_s, "pipeline.decision.ttc_threshold_s")?;
+        check(
+            (1..=10_000_000).contains(&de.roll_duration_us),
+            "pipeline.decision.roll_duration_us",
+            || format!("must be 1 us to 10 s, got {}", de.roll_duration_us),
+        )?;
+        non_negative(de.box_margin_x_px, "pipeline.decision.box_margin_x_px")?;
+        non_negative(de.box_margin_y_px, "pipeline.decision.box_margin_y_px")?;
+        check(
+            (0.0..=1.0).contains(&de.min_foe_support),
+            "pipeline.decision.min_foe_support",
+            || format!("must be a fraction 0..1, got {}", de.min_foe_support),
+        )?;
+        check(
+            (1..=64).contains(&de.confirm_windows),
+            "pipeline.decision.confirm_windows",
+            || format!("must be 1 to 64, got {}", de.confirm_windows),
+        )?;
+        check(
+            (de.confirm_windows..=64).contains(&de.confirm_span_windows),
+            "pipeline.decision.confirm_span_windows",
+            || {
+                format!(
+                    "must be confirm_windows ({}) to 64, got {}",
+                    de.confirm_windows, de.confirm_span_windows
+                )
+            },
+        )?;
+        check(
+            de.max_obstacle_width > 0.0 && de.max_obstacle_width <= 1.0,
+            "pipeline.decision.max_obstacle_width",
+            || {
+                format!(
+                    "must be a fraction in (0, 1], got {}",
+                    de.max_obstacle_width
+                )
+            },
+        )?;
+        non_negative(
+            de.min_obstacle_height_px,
+            "pipeline.decision.min_obstacle_height_px",
+        )?;
+        check(
+            de.min_ttc_s >= 0.0 && de.min_ttc_s < de.ttc_threshold_s,
+            "pipeline.decision.min_ttc_s",
+            || {
+                format!(
+                    "must be 0 or more and below ttc_threshold_s, got {}",
+                    de.min_ttc_s
+                )
+            },
+        )?;
+        Ok(())
     }
 }
 

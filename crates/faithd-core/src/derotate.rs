@@ -10,6 +10,8 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check};
+
 use crate::attitude::{AttitudeSample, body_rates_at};
 use crate::camera::{CameraIntrinsics, Mounting};
 use crate::flow::FlowVector;
@@ -33,6 +35,24 @@ impl Default for DerotationConfig {
             min_speed_px_s: 2.0,
             camera_pitch_up_deg: 0.0,
         }
+    }
+}
+
+impl DerotationConfig {
+    /// `[pipeline.derotation]`.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let d = self;
+        check(
+            d.min_speed_px_s >= 0.0,
+            "pipeline.derotation.min_speed_px_s",
+            || format!("must not be negative, got {}", d.min_speed_px_s),
+        )?;
+        check(
+            d.camera_pitch_up_deg.abs() <= 60.0,
+            "pipeline.derotation.camera_pitch_up_deg",
+            || format!("must be within +-60 degrees, got {}", d.camera_pitch_up_deg),
+        )?;
+        Ok(())
     }
 }
 

@@ -7,16 +7,17 @@
 //! Modules in the order an event travels (docs/design.md):
 #![forbid(unsafe_code)]
 
-pub mod attitude; // body rates from the autopilot, and the recent log of them
+pub mod event; // one DVS event: pixel, polarity, microseconds
 pub mod camera; // intrinsics and the camera's mounting on the body
+pub mod attitude; // body rates from the autopilot, and the recent log of them
+pub mod window; // which events make up one pipeline window
+pub mod flow; // normal optic flow from the events (local plane fits)
+pub mod derotate; // the rotational part of the flow taken out
+pub mod foe; // focus of expansion: FAITH and the baselines
+pub mod ttc; // time to contact per flow vector
 pub mod cluster; // DBSCAN over position and TTC: the obstacles
 pub mod decide; // a roll left, right or nothing, and why
-pub mod derotate; // the rotational part of the flow taken out
-pub mod event; // one DVS event: pixel, polarity, microseconds
-pub mod flow; // normal optic flow from the events (local plane fits)
-pub mod foe; // focus of expansion: FAITH and the baselines
 pub mod pipeline; // the stages above, in order, for one window
 pub mod safety; // the pilot's gate and the timed roll manoeuvre
-pub mod synth;
-pub mod ttc; // time to contact per flow vector
-pub mod window; // which events make up one pipeline window // analytic inputs with known answers, for tests and the sim source
+pub mod invalid; // a setting that cannot be used: its key and why
+pub mod synth; // analytic inputs with known answers, for tests and the sim source

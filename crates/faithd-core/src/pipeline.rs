@@ -7,6 +7,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check};
+
 use crate::attitude::AttitudeSample;
 use crate::camera::CameraIntrinsics;
 use crate::cluster::{
@@ -68,6 +70,42 @@ impl Default for PipelineConfig {
             decision: DecisionConfig::default(),
             foe_smoothing_windows: 8,
         }
+    }
+}
+
+impl PipelineConfig {
+    /// Every check of `[pipeline]`: the daemon's, and the replay's of the settings a
+    /// window log carries, before anything is allocated from them.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        self.camera.validate()?;
+        check(
+            (1..=10_000_000).contains(&self.history_us),
+            "pipeline.history_us",
+            || format!("must be 1 us to 10 s, got {}", self.history_us),
+        )?;
+        check(
+            (1..=100_000).contains(&self.max_vectors),
+            "pipeline.max_vectors",
+            || {
+                format!(
+                    "must be 1 to 100000 (buffers are sized from it), got {}",
+                    self.max_vectors
+                )
+            },
+        )?;
+        check(
+            (1..=100).contains(&self.foe_smoothing_windows),
+            "pipeline.foe_smoothing_windows",
+            || format!("must be 1 to 100, got {}", self.foe_smoothing_windows),
+        )?;
+
+        self.flow.validate()?;
+        self.derotation.validate()?;
+        self.faith.validate()?;
+        self.ttc.validate()?;
+        self.cluster.validate()?;
+        self.decision.validate()?;
+        Ok(())
     }
 }
 

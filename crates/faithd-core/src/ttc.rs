@@ -9,6 +9,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, positive};
+
 use crate::flow::FlowVector;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -22,6 +24,14 @@ pub struct TtcConfig {
 impl Default for TtcConfig {
     fn default() -> Self {
         Self { max_ttc_s: 10.0 }
+    }
+}
+
+impl TtcConfig {
+    /// `[pipeline.ttc]`.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        positive(self.max_ttc_s, "pipeline.ttc.max_ttc_s")?;
+        Ok(())
     }
 }
 

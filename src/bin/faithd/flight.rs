@@ -165,7 +165,7 @@ pub fn check_fc(args: &CheckFcArgs) -> Result<(), Failure> {
     let report = fc_check::check_over_msp(&config).map_err(|e| {
         Failure::failed(format!(
             "cannot read the flight controller on {}: {e}",
-            config.command.msp_endpoint
+            config.command.msp_port()
         ))
     })?;
     if args.json {

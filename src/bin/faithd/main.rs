@@ -97,7 +97,7 @@ enum Command {
         /// Path to faithd.toml.
         path: PathBuf,
     },
-    /// Read the flight controller's set-up over its MSP port (`command.msp_endpoint`)
+    /// Read the flight controller's set-up over its MSP port (`command.sink.endpoint`)
     /// and say whether faithd's roll route can work, naming the iNav CLI line that
     /// fixes each problem. Exit 0 when it can, 2 when it is refused, 1 when the flight
     /// controller cannot be read. `faithd run` does the same check before its gate

@@ -24,6 +24,7 @@ use mavlink::dialects::common::MavMessage;
 use serde::{Deserialize, Serialize};
 
 use faithd_core::event::Event;
+use faithd_core::invalid::{Invalid, check};
 use faithd_formats::window_log::WindowLogHeader;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -54,6 +55,54 @@ impl Default for RecordConfig {
             max_queue_bytes: 32 * 1024 * 1024,
             sync_interval_ms: 1000,
         }
+    }
+}
+
+impl RecordConfig {
+    /// `[record]`: parts big enough, a budget that holds three open parts and one to spare.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        const MIB: u64 = 1024 * 1024;
+        let r = self;
+        if !r.enabled {
+            return Ok(());
+        }
+        check(!r.dir.as_os_str().is_empty(), "record.dir", || {
+            "must name a directory".into()
+        })?;
+        check(r.max_file_bytes >= MIB, "record.max_file_bytes", || {
+            format!(
+                "must be at least 1 MiB ({MIB}), got {}: smaller parts would open a file per batch",
+                r.max_file_bytes
+            )
+        })?;
+        // Three files are open at a time (events, MAVLink, windows), each up to a part:
+        // one more part of room keeps the budget from deleting what is being written.
+        check(
+            r.max_total_bytes >= 4 * r.max_file_bytes,
+            "record.max_total_bytes",
+            || {
+                format!(
+                    "must be at least four times record.max_file_bytes ({}), got {}: three files are written at once and the budget needs a part to spare",
+                    4 * r.max_file_bytes,
+                    r.max_total_bytes
+                )
+            },
+        )?;
+        check(
+            (MIB..=1024 * MIB).contains(&r.max_queue_bytes),
+            "record.max_queue_bytes",
+            || {
+                format!(
+                    "must be 1 MiB to 1 GiB, got {}: the queue is memory the daemon holds while the card is slow",
+                    r.max_queue_bytes
+                )
+            },
+        )?;
+        check(
+            (10..=60_000).contains(&r.sync_interval_ms),
+            "record.sync_interval_ms",
+            || format!("must be 10 to 60000 ms, got {}", r.sync_interval_ms),
+        )
     }
 }
 

@@ -6,6 +6,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check, positive};
+
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DbscanConfig {
@@ -22,6 +24,17 @@ impl Default for DbscanConfig {
             eps: 0.2,
             min_points: 20,
         }
+    }
+}
+
+impl DbscanConfig {
+    /// `[pipeline.cluster]`: DBSCAN's radius and density.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        positive(self.eps, "pipeline.cluster.eps")?;
+        check(self.min_points >= 1, "pipeline.cluster.min_points", || {
+            "must be at least 1".into()
+        })?;
+        Ok(())
     }
 }
 

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check, positive};
+
 use super::plane_fit::{PlaneFit, fit_plane};
 use super::surface::{ActiveEventSurface, NEVER_US};
 use super::vector::FlowVector;
@@ -75,6 +77,45 @@ impl Default for FlowConfig {
             min_speed_px_s: 2.0,
             max_speed_px_s: 5_000.0,
         }
+    }
+}
+
+impl FlowConfig {
+    /// `[pipeline.flow]`: radius, fit sizes and speed limits that the fit can honour.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let f = self;
+        check(
+            (1..=super::MAX_RADIUS_PX).contains(&f.radius_px),
+            "pipeline.flow.radius_px",
+            || format!("must be 1 to 5, got {}", f.radius_px),
+        )?;
+        check(f.window_us > 0, "pipeline.flow.window_us", || {
+            format!("must be positive, got {}", f.window_us)
+        })?;
+        check(f.refractory_us >= 0, "pipeline.flow.refractory_us", || {
+            format!("must not be negative, got {}", f.refractory_us)
+        })?;
+        let patch = (2 * usize::from(f.radius_px) + 1).pow(2);
+        check(
+            (3..=patch).contains(&f.min_points),
+            "pipeline.flow.min_points",
+            || {
+                format!(
+                    "must be 3 to {patch} for radius {}, got {}",
+                    f.radius_px, f.min_points
+                )
+            },
+        )?;
+        positive(f.outlier_residual_us, "pipeline.flow.outlier_residual_us")?;
+        positive(f.max_rms_us, "pipeline.flow.max_rms_us")?;
+        positive(f.min_speed_px_s, "pipeline.flow.min_speed_px_s")?;
+        positive(f.max_speed_px_s, "pipeline.flow.max_speed_px_s")?;
+        check(
+            f.min_speed_px_s < f.max_speed_px_s,
+            "pipeline.flow.max_speed_px_s",
+            || "must exceed min_speed_px_s".into(),
+        )?;
+        Ok(())
     }
 }
 

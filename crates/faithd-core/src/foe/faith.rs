@@ -33,6 +33,8 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 
+use crate::invalid::{Invalid, check, non_negative, positive};
+
 use super::polygon::{ConvexPolygon, HalfPlane};
 use super::speed_fit::{SpeedFit, SpeedFitConfig};
 use super::{FoeEstimate, FoeEstimator};
@@ -99,6 +101,66 @@ impl Default for FaithConfig {
             speed_patch_px: 20.0,
             speed_temperature: 0.3,
         }
+    }
+}
+
+impl FaithConfig {
+    /// `[pipeline.faith]`: iteration counts, margins and the speed fit's grid.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let fa = self;
+        check(fa.iterations >= 1, "pipeline.faith.iterations", || {
+            "must be at least 1".into()
+        })?;
+        check(fa.min_vectors >= 2, "pipeline.faith.min_vectors", || {
+            "must be at least 2".into()
+        })?;
+        non_negative(fa.search_margin_px, "pipeline.faith.search_margin_px")?;
+        check(
+            fa.unbounded_margin_px.is_finite() && fa.unbounded_margin_px > fa.search_margin_px,
+            "pipeline.faith.unbounded_margin_px",
+            || "must be finite and larger than search_margin_px".into(),
+        )?;
+        non_negative(fa.inlier_tolerance_px, "pipeline.faith.inlier_tolerance_px")?;
+
+        check(
+            (0.0..1.0).contains(&fa.plateau_fraction),
+            "pipeline.faith.plateau_fraction",
+            || format!("must be 0 (off) to below 1, got {}", fa.plateau_fraction),
+        )?;
+        positive(fa.plateau_radius_px, "pipeline.faith.plateau_radius_px")?;
+        positive(fa.plateau_cell_px, "pipeline.faith.plateau_cell_px")?;
+        check(
+            (0.0..=120.0).contains(&fa.speed_radius_px),
+            "pipeline.faith.speed_radius_px",
+            || format!("must be 0 (off) to 120 px, got {}", fa.speed_radius_px),
+        )?;
+        check(
+            fa.speed_radius_px == 0.0
+                || fa.speed_step_px >= 0.5 && fa.speed_step_px <= fa.speed_radius_px,
+            "pipeline.faith.speed_step_px",
+            || {
+                format!(
+                    "must be 0.5 px to speed_radius_px ({}), got {}",
+                    fa.speed_radius_px, fa.speed_step_px
+                )
+            },
+        )?;
+        check(
+            (4.0..=240.0).contains(&fa.speed_patch_px),
+            "pipeline.faith.speed_patch_px",
+            || format!("must be 4 to 240 px, got {}", fa.speed_patch_px),
+        )?;
+        check(
+            fa.speed_temperature >= 0.0 && fa.speed_temperature.is_finite(),
+            "pipeline.faith.speed_temperature",
+            || {
+                format!(
+                    "must be a non-negative number (0: the best cell alone), got {}",
+                    fa.speed_temperature
+                )
+            },
+        )?;
+        Ok(())
     }
 }
 

@@ -7,17 +7,22 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::rc::{PwmUs, RcChannel};
 use super::vehicle::VehicleState;
+use crate::invalid::{Invalid, check};
+
+/// iNav's first AUX channel: its modes (MSP RC OVERRIDE among them) bind to AUX.
+pub const FIRST_AUX_CHANNEL: u8 = 5;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GateConfig {
     /// RC channel (1-based, as numbered in iNav's RC_CHANNELS) carrying the pilot's
     /// manual/auto switch.
-    pub switch_channel: u8,
-    /// The switch is in AUTO while its value lies in this range, microseconds.
-    pub auto_min_us: u16,
-    pub auto_max_us: u16,
+    pub switch_channel: RcChannel,
+    /// The switch is in AUTO while its value lies in this range.
+    pub auto_min_us: PwmUs,
+    pub auto_max_us: PwmUs,
     /// RC_CHANNELS older than this closes the gate.
     pub rc_stale_us: i64,
     /// ATTITUDE older than this closes the gate (derotation needs it).
@@ -34,15 +39,59 @@ pub struct GateConfig {
 impl Default for GateConfig {
     fn default() -> Self {
         Self {
-            switch_channel: 6,
-            auto_min_us: 1700,
-            auto_max_us: 2100,
+            switch_channel: const { RcChannel::constant(6) },
+            auto_min_us: const { PwmUs::constant(1700) },
+            auto_max_us: const { PwmUs::constant(2100) },
             rc_stale_us: 300_000,
             attitude_stale_us: 100_000,
             heartbeat_stale_us: 2_500_000,
             pipeline_stale_us: 100_000,
             fc_status_stale_us: 100_000,
         }
+    }
+}
+
+impl GateConfig {
+    /// `[gate]`: the switch on an AUX channel, an AUTO range that leaves the pilot a
+    /// MANUAL end, and staleness limits between 1 ms and 10 s.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let g = self;
+        check(
+            g.switch_channel.get() >= FIRST_AUX_CHANNEL,
+            "gate.switch_channel",
+            || {
+                format!(
+                    "must be an AUX channel {FIRST_AUX_CHANNEL} to {} (iNav binds its MSP RC OVERRIDE mode to AUX channels), got {}",
+                    RcChannel::MAX,
+                    g.switch_channel
+                )
+            },
+        )?;
+        let (min, max) = (g.auto_min_us.us(), g.auto_max_us.us());
+        check(
+            min <= max && min >= 800 && max <= 2200,
+            "gate.auto_min_us",
+            || format!("AUTO range {min}..{max} must lie in 800..2200 with min <= max"),
+        )?;
+        // A switch has an end that means MANUAL: a range over both ends of the travel
+        // (1000 and 2000, give or take 100) would leave the pilot no way back.
+        check(min > 1100 || max < 1900, "gate.auto_max_us", || {
+            format!(
+                "AUTO range {min}..{max} covers the whole stick travel: the pilot could never switch to MANUAL"
+            )
+        })?;
+        for (v, key) in [
+            (g.rc_stale_us, "gate.rc_stale_us"),
+            (g.attitude_stale_us, "gate.attitude_stale_us"),
+            (g.heartbeat_stale_us, "gate.heartbeat_stale_us"),
+            (g.pipeline_stale_us, "gate.pipeline_stale_us"),
+            (g.fc_status_stale_us, "gate.fc_status_stale_us"),
+        ] {
+            check((1000..=10_000_000).contains(&v), key, || {
+                format!("must be 1 ms to 10 s, got {v}")
+            })?;
+        }
+        Ok(())
     }
 }
 
@@ -315,11 +364,11 @@ fn first_blocker(
     if age_us > config.rc_stale_us {
         return Some(Blocker::RcStale { age_us });
     }
-    let channel = config.switch_channel;
+    let channel = config.switch_channel.get();
     let Some(value_us) = rc.channel_us(channel) else {
         return Some(Blocker::SwitchMissing { channel });
     };
-    if !(config.auto_min_us..=config.auto_max_us).contains(&value_us) {
+    if !(config.auto_min_us.us()..=config.auto_max_us.us()).contains(&value_us) {
         return Some(Blocker::SwitchNotAuto { value_us });
     }
     if vehicle.radio.is_some_and(|r| !r.healthy) {

@@ -10,15 +10,17 @@
 use serde::{Deserialize, Serialize};
 
 use super::gate::GateState;
+use super::rc::{PwmUs, RcChannel};
 use crate::decide::RollDirection;
+use crate::invalid::{Invalid, check};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ManoeuvreConfig {
     /// RC channel (1-based, iNav's order; AETR puts roll on 1) the roll is sent on.
-    pub roll_channel: u8,
-    /// Stick centre, microseconds.
-    pub neutral_us: u16,
+    pub roll_channel: RcChannel,
+    /// Stick centre.
+    pub neutral_us: PwmUs,
     /// Roll stick deflection from centre, microseconds (300 is 60% of full stick;
     /// in iNav's ANGLE mode that is 60% of max_angle_inclination_rll).
     pub deflection_us: u16,
@@ -36,14 +38,61 @@ pub struct ManoeuvreConfig {
 impl Default for ManoeuvreConfig {
     fn default() -> Self {
         Self {
-            roll_channel: 1,
-            neutral_us: 1500,
+            roll_channel: const { RcChannel::constant(1) },
+            neutral_us: const { PwmUs::constant(1500) },
             deflection_us: 300,
             reversed: false,
             resend_period_us: 20_000,
             release_repeats: 3,
             cooldown_us: 1_000_000,
         }
+    }
+}
+
+impl ManoeuvreConfig {
+    /// `[manoeuvre]`: roll on iNav's channel 1, a deflection that keeps the stick in
+    /// 1000..2000, resend and release counts the stream can keep.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let m = self;
+        check(m.roll_channel.get() == 1, "manoeuvre.roll_channel", || {
+            format!(
+                "must be 1: iNav's roll is its channel 1 whatever the radio's order (faithd reads iNav's channel map), got {}",
+                m.roll_channel
+            )
+        })?;
+        let neutral_us = m.neutral_us.us();
+        check(
+            (1000..=2000).contains(&neutral_us),
+            "manoeuvre.neutral_us",
+            || format!("must be 1000..2000, got {neutral_us}"),
+        )?;
+        check(
+            (1..=500).contains(&m.deflection_us)
+                && neutral_us - m.deflection_us >= 1000
+                && neutral_us + m.deflection_us <= 2000,
+            "manoeuvre.deflection_us",
+            || {
+                format!(
+                    "must be 1..500 and keep the stick within 1000..2000, got {}",
+                    m.deflection_us
+                )
+            },
+        )?;
+        check(
+            (5_000..=500_000).contains(&m.resend_period_us),
+            "manoeuvre.resend_period_us",
+            || format!("must be 5 to 500 ms, got {}", m.resend_period_us),
+        )?;
+        check(
+            (1..=50).contains(&m.release_repeats),
+            "manoeuvre.release_repeats",
+            || format!("must be 1 to 50, got {}", m.release_repeats),
+        )?;
+        check(
+            (0..=60_000_000).contains(&m.cooldown_us),
+            "manoeuvre.cooldown_us",
+            || format!("must be 0 to 60 s, got {}", m.cooldown_us),
+        )
     }
 }
 
@@ -122,15 +171,15 @@ impl Commander {
         let c = &self.config;
         let right = matches!(direction, RollDirection::Right) != c.reversed;
         if right {
-            c.neutral_us.saturating_add(c.deflection_us)
+            c.neutral_us.us().saturating_add(c.deflection_us)
         } else {
-            c.neutral_us.saturating_sub(c.deflection_us)
+            c.neutral_us.us().saturating_sub(c.deflection_us)
         }
     }
 
     /// Advances to `now_us`. `request` is the pipeline's newest roll decision, if any.
     pub fn step(&mut self, now_us: i64, gate: &GateState, request: Option<RollRequest>) -> Step {
-        let channel = self.config.roll_channel;
+        let channel = self.config.roll_channel.get();
         match self.state {
             State::Rolling { .. } if !gate.is_open() => {
                 self.begin_release(now_us);

@@ -5,4 +5,5 @@
 pub mod confirm;
 pub mod gate;
 pub mod manoeuvre;
+pub mod rc;
 pub mod vehicle;
