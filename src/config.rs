@@ -12,10 +12,10 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::command::CommandConfig;
-use crate::daemon::DaemonConfig;
-use crate::daemon::record::RecordConfig;
-use crate::daemon::source::SourceConfig;
+use crate::cycle::DaemonConfig;
 use crate::link::MavlinkConfig;
+use crate::record::RecordConfig;
+use crate::source::SourceConfig;
 use faithd_core::invalid::check;
 use faithd_core::pipeline::PipelineConfig;
 use faithd_core::safety::gate::GateConfig;
@@ -310,10 +310,7 @@ mod tests {
         let sim = FaithdConfig::parse("[source]\nkind = \"sim\"\nseed = 7\n").unwrap();
         assert!(matches!(
             sim.source,
-            crate::daemon::source::SourceConfig::Sim(crate::daemon::source::SimSource {
-                seed: 7,
-                ..
-            })
+            crate::source::SourceConfig::Sim(crate::source::SimSource { seed: 7, .. })
         ));
         let err = FaithdConfig::parse("[command.sink]\nkind = \"mavlink\"\n")
             .unwrap_err()

@@ -37,3 +37,49 @@ pub fn init(default_filter: &str) -> WorkerGuard {
 pub fn dropped_lines() -> usize {
     DROPPED.get().map_or(0, ErrorCounter::dropped_lines)
 }
+/// Logs the first of a run of events at once and then at most once per period, with
+/// how many happened since the last line.
+#[derive(Debug)]
+pub struct Throttle {
+    period_us: i64,
+    last_line_us: Option<i64>,
+    since: u64,
+}
+
+impl Throttle {
+    pub fn new(period_us: i64) -> Self {
+        Self {
+            period_us,
+            last_line_us: None,
+            since: 0,
+        }
+    }
+
+    /// Counts one event; calls `log` with the count since the last line when due.
+    pub fn event(&mut self, now_us: i64, log: impl FnOnce(u64)) {
+        self.since += 1;
+        if self
+            .last_line_us
+            .is_none_or(|t| now_us - t >= self.period_us)
+        {
+            log(self.since);
+            self.since = 0;
+            self.last_line_us = Some(now_us);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Throttle;
+
+    #[test]
+    fn a_throttle_logs_the_first_then_once_per_period_with_the_count() {
+        let mut throttle = Throttle::new(1000);
+        let mut lines = Vec::new();
+        for t in 0..2500 {
+            throttle.event(t, |n| lines.push((t, n)));
+        }
+        assert_eq!(lines, [(0, 1), (1000, 1000), (2000, 1000)]);
+    }
+}

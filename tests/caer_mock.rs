@@ -6,7 +6,7 @@
 use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
-use faithd::daemon::clock::DaemonClock;
+use faithd::clock::DaemonClock;
 use faithd::source::caer::{CameraError, Ended, SensorSize, SessionError, run, serve_device};
 use faithd_core::event::Polarity;
 use libcaer_sys::Libcaer;

@@ -570,7 +570,7 @@ fn a_simulated_camera_needs_the_command_line_opt_in() {
     .unwrap();
     assert!(matches!(
         shipped.source,
-        faithd::daemon::source::SourceConfig::Caer(_)
+        faithd::source::SourceConfig::Caer(_)
     ));
 }
 

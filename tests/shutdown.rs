@@ -10,8 +10,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use common::autopilot::{Controls, MockAutopilot};
-use faithd::daemon::source::{SourceConfig, run_sim};
-use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve};
+use faithd::clock::DaemonClock;
+use faithd::daemon::{Ended, Hooks, serve};
+use faithd::source::{SourceConfig, sim::run_sim};
 
 /// Sets its flag when dropped: when the thread that owns it has ended.
 struct SetOnDrop(Arc<AtomicBool>);

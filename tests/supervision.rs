@@ -11,8 +11,10 @@ use std::time::{Duration, Instant};
 
 use common::autopilot::{Controls, MockAutopilot};
 use common::msp::is_roll;
-use faithd::daemon::source::{SourceConfig, run_sim};
-use faithd::daemon::{Ended, Hooks, clock::DaemonClock, serve, supervise};
+use faithd::clock::DaemonClock;
+use faithd::daemon::{Ended, Hooks, serve};
+use faithd::source::{SourceConfig, sim::run_sim};
+use faithd::supervise;
 
 #[test]
 fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault() {

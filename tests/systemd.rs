@@ -243,7 +243,7 @@ fn the_unit_caps_memory_above_the_bounded_queue() {
         .and_then(|v| v.strip_suffix('M'))
         .and_then(|v| v.parse().ok())
         .expect("MemoryMax=<n>M in the unit");
-    let queue_mib = faithd::daemon::record::RecordConfig::default().max_queue_bytes >> 20;
+    let queue_mib = faithd::record::RecordConfig::default().max_queue_bytes >> 20;
     assert!(max_mib >= 4 * queue_mib, "MemoryMax {max_mib} MiB");
     assert!(
         max_mib <= 512,

@@ -16,7 +16,7 @@ use tokio::net::{TcpListener, UdpSocket};
 use super::inav_mavlink::{self, encode};
 use super::inav_msp::{FcView, InavMsp, Setup};
 use super::physics::Shared;
-use crate::daemon::clock::DaemonClock;
+use crate::clock::DaemonClock;
 
 /// The autopilot's boot clock runs on its own origin, as a real one does.
 const BOOT_OFFSET_MS: i64 = 73_000;

@@ -268,7 +268,8 @@ mod tests {
             (s, server.await.unwrap())
         });
         let (settings, mut fc) = settings;
-        let want = fc_check::Expectations::from_config(&crate::config::FaithdConfig::default());
+        let config = crate::config::FaithdConfig::default();
+        let want = fc_check::Expectations::new(&config.gate, config.mavlink.autopilot_system_id);
         let report = fc_check::evaluate(&settings, &want);
         assert!(report.route.is_some(), "{}", report.summary());
 

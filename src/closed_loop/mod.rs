@@ -16,9 +16,9 @@ use std::sync::Arc;
 use serde::Serialize;
 use tokio::sync::mpsc;
 
+use crate::clock::DaemonClock;
 use crate::command::{MspSink, Sink};
 use crate::config::FaithdConfig;
-use crate::daemon::clock::DaemonClock;
 use crate::daemon::{self, Hooks, Observation};
 use crate::link::endpoint::Address;
 use physics::{PathPoint, Shared, VEHICLE_RADIUS_M};

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::FlightSpec;
-use crate::daemon::clock::DaemonClock;
+use crate::clock::DaemonClock;
 use faithd_core::camera::{CameraIntrinsics, Mounting};
 use faithd_core::event::Event;
 use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};

@@ -8,7 +8,8 @@
 
 use std::time::Duration;
 
-use faithd_core::safety::gate::FIRST_AUX_CHANNEL;
+use super::CommandConfig;
+use faithd_core::safety::gate::{FIRST_AUX_CHANNEL, GateConfig};
 
 use super::msp_port::{self, MspError, MspPort};
 
@@ -142,14 +143,15 @@ pub struct Expectations {
 }
 
 impl Expectations {
-    pub fn from_config(c: &crate::config::FaithdConfig) -> Self {
+    /// From the gate's settings and the autopilot's MAVLink system id.
+    pub fn new(gate: &GateConfig, autopilot_system_id: u8) -> Self {
         Self {
-            switch_channel: c.gate.switch_channel.get(),
-            auto_min_us: c.gate.auto_min_us.us(),
-            auto_max_us: c.gate.auto_max_us.us(),
-            attitude_stale_us: c.gate.attitude_stale_us,
-            rc_stale_us: c.gate.rc_stale_us,
-            autopilot_system_id: c.mavlink.autopilot_system_id,
+            switch_channel: gate.switch_channel.get(),
+            auto_min_us: gate.auto_min_us.us(),
+            auto_max_us: gate.auto_max_us.us(),
+            attitude_stale_us: gate.attitude_stale_us,
+            rc_stale_us: gate.rc_stale_us,
+            autopilot_system_id,
         }
     }
 }
@@ -571,9 +573,9 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
 }
 
 /// `faithd check-fc`: opens `command.sink.endpoint`, reads and judges the set-up.
-pub fn check_over_msp(config: &crate::config::FaithdConfig) -> Result<FcReport, String> {
-    let endpoint = config.command.msp_port();
-    let timeout = Duration::from_micros(config.command.msp_timeout_us.max(1) as u64);
+pub fn check_over_msp(command: &CommandConfig, expect: &Expectations) -> Result<FcReport, String> {
+    let endpoint = command.msp_port();
+    let timeout = Duration::from_micros(command.msp_timeout_us.max(1) as u64);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
@@ -585,7 +587,7 @@ pub fn check_over_msp(config: &crate::config::FaithdConfig) -> Result<FcReport, 
             .map_err(|e| format!("{endpoint}: {e}"))?;
         let mut port = MspPort::new(transport);
         let settings = read(&mut port, timeout).await.map_err(|e| e.to_string())?;
-        Ok(evaluate(&settings, &Expectations::from_config(config)))
+        Ok(evaluate(&settings, expect))
     })
 }
 
@@ -643,7 +645,7 @@ mod tests {
     }
 
     fn want() -> Expectations {
-        Expectations::from_config(&crate::config::FaithdConfig::default())
+        Expectations::new(&GateConfig::default(), 1)
     }
 
     #[test]

@@ -20,9 +20,9 @@ use tokio::sync::{mpsc, oneshot, watch};
 use super::fc_check::{self, Expectations, RouteFacts};
 use super::msp;
 use super::msp_port::{self, MspPort};
-use crate::daemon::clock::DaemonClock;
-use crate::daemon::supervise::Heartbeat;
+use crate::clock::DaemonClock;
 use crate::link::endpoint::Endpoint;
+use crate::supervise::Heartbeat;
 
 /// The stream's knobs, from the config.
 #[derive(Clone, Copy, Debug)]

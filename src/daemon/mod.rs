@@ -16,96 +16,28 @@
 //! systemd hears READY once the autopilot link is up and the pipeline has run, and
 //! the watchdog is fed only while the pipeline keeps finishing cycles.
 
-pub mod clock;
-pub mod cycle;
-pub mod record;
-pub mod shed;
-pub mod source;
-pub mod supervise;
-
 use std::sync::mpsc::SyncSender;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
+use crate::clock::DaemonClock;
 use crate::command::fc_check::Expectations;
 use crate::command::stream::RollReport;
 use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
 use crate::link::endpoint::Endpoint;
 use crate::link::{self, LinkOutputs};
-use clock::DaemonClock;
+use crate::source::{self, sim};
+use crate::{cycle, record, supervise};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::Action;
 use faithd_core::event::Event;
-use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::confirm::{RollConfirm, Verdict};
 use faithd_core::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
 use faithd_core::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
 use faithd_core::safety::vehicle::VehicleState;
-
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct DaemonConfig {
-    /// Pipeline cycle period (10 ms = 100 decisions per second).
-    pub period_us: i64,
-    /// A cycle longer than this is an overrun: the next cycles shed load.
-    pub budget_us: i64,
-    /// Load shedding never goes below these.
-    pub shed_min_vectors: usize,
-    pub shed_min_iterations: u32,
-    /// No event batch for this long: the camera is gone, the pipeline unhealthy.
-    pub event_stale_us: i64,
-}
-
-impl Default for DaemonConfig {
-    fn default() -> Self {
-        Self {
-            period_us: 10_000,
-            budget_us: 8_000,
-            shed_min_vectors: 300,
-            shed_min_iterations: 13,
-            event_stale_us: 200_000,
-        }
-    }
-}
-
-impl DaemonConfig {
-    /// `[daemon]`: a period of 1 to 100 ms and a budget within it.
-    pub fn validate(&self) -> Result<(), Invalid> {
-        let d = self;
-        check(
-            (1000..=100_000).contains(&d.period_us),
-            "daemon.period_us",
-            || format!("must be 1 to 100 ms, got {}", d.period_us),
-        )?;
-        check(
-            d.budget_us > 0 && d.budget_us <= d.period_us,
-            "daemon.budget_us",
-            || {
-                format!(
-                    "must be positive and at most period_us, got {}",
-                    d.budget_us
-                )
-            },
-        )?;
-        check(d.shed_min_vectors >= 1, "daemon.shed_min_vectors", || {
-            "must be at least 1".into()
-        })?;
-        check(
-            d.shed_min_iterations >= 1,
-            "daemon.shed_min_iterations",
-            || "must be at least 1".into(),
-        )?;
-        check(
-            (1000..=10_000_000).contains(&d.event_stale_us),
-            "daemon.event_stale_us",
-            || format!("must be 1 ms to 10 s, got {}", d.event_stale_us),
-        )
-    }
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum DaemonError {
@@ -164,7 +96,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
             tracing::warn!(
                 "SIMULATED CAMERA (--simulated-camera): every roll faithd commands comes from generated events, not from the world; never fly like this"
             );
-            Box::new(move |clock, batches| source::run_sim(sim, camera, clock, batches))
+            Box::new(move |clock, batches| sim::run_sim(sim, camera, clock, batches))
         }
         source::SourceConfig::Caer(caer) => {
             let path = (!caer.libcaer_path.is_empty()).then_some(caer.libcaer_path.as_str());
@@ -408,7 +340,7 @@ fn stream_settings(config: &FaithdConfig) -> StreamSettings {
         reconnect_min: us(config.mavlink.reconnect_min_us),
         reconnect_max: us(config.mavlink.reconnect_max_us),
         recheck: Duration::from_secs(5),
-        expect: Expectations::from_config(config),
+        expect: Expectations::new(&config.gate, config.mavlink.autopilot_system_id),
     }
 }
 

@@ -17,8 +17,8 @@ use mavlink::{AsyncMavlinkReader, MavHeader, MavlinkVersion};
 use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
-use crate::daemon::clock::DaemonClock;
-use crate::daemon::supervise::Heartbeat;
+use crate::clock::DaemonClock;
+use crate::supervise::Heartbeat;
 use clock_sync::ClockSync;
 use endpoint::{Address, BoxedTransport, Endpoint};
 use faithd_core::attitude::AttitudeLog;
@@ -131,7 +131,7 @@ pub struct LinkOutputs {
     pub vehicle: watch::Sender<VehicleState>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
     /// Every frame in and out goes to the flight recording.
-    pub recorder: Option<crate::daemon::record::Recorder>,
+    pub recorder: Option<crate::record::Recorder>,
 }
 
 /// Records a frame in or out, stamped with the daemon-clock time `t_us` it was
@@ -145,8 +145,8 @@ fn record(
 ) {
     if let Some(r) = &outputs.recorder {
         let t_unix_us = clock.unix_us(t_us);
-        r.send(crate::daemon::record::Item::Mavlink(Box::new(
-            crate::daemon::record::MavlinkRecord {
+        r.send(crate::record::Item::Mavlink(Box::new(
+            crate::record::MavlinkRecord {
                 t_unix_us,
                 header,
                 msg: msg.clone(),
@@ -221,7 +221,7 @@ async fn serve(
     let mut foreign = 0u64;
     let silence = Duration::from_micros(config.silence_timeout_us.max(1000) as u64);
     let mut deadline = tokio::time::Instant::now() + silence;
-    let mut beat = tokio::time::interval(crate::daemon::supervise::BEAT_PERIOD);
+    let mut beat = tokio::time::interval(crate::supervise::BEAT_PERIOD);
     loop {
         tokio::select! {
             _ = beat.tick() => alive.beat(),

@@ -17,7 +17,7 @@ use std::time::Duration;
 
 use libcaer_sys::{self as caer, Libcaer};
 
-use crate::daemon::clock::DaemonClock;
+use crate::clock::DaemonClock;
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
 use faithd_core::event::{Event, Polarity};
 

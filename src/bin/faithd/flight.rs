@@ -162,7 +162,8 @@ pub fn check_config(path: &Path) -> Result<(), Failure> {
 pub fn check_fc(args: &CheckFcArgs) -> Result<(), Failure> {
     use faithd::command::fc_check;
     let config = FaithdConfig::load(&args.config).map_err(Failure::refused)?;
-    let report = fc_check::check_over_msp(&config).map_err(|e| {
+    let expect = fc_check::Expectations::new(&config.gate, config.mavlink.autopilot_system_id);
+    let report = fc_check::check_over_msp(&config.command, &expect).map_err(|e| {
         Failure::failed(format!(
             "cannot read the flight controller on {}: {e}",
             config.command.msp_port()

@@ -1,44 +1,16 @@
-//! Event sources for the daemon. `sim` plays generated approaches to a pole in
-//! real time on the daemon clock: the camera for bench tests and demos without
-//! hardware. (Live cameras and recorded files join here.)
+//! `kind = "sim"`: generated approaches to a pole, played in real time on the daemon
+//! clock. The camera for bench tests without hardware; `faithd run` takes it only
+//! with `--simulated-camera`.
 
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use super::clock::DaemonClock;
+use crate::clock::DaemonClock;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
-use faithd_core::invalid::{Invalid, check};
 use faithd_core::synth::{LoomingEdges, looming_edge_events};
-
-/// Where events come from: `[source]`, a `kind` and that kind's own settings.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum SourceConfig {
-    /// The DVS240/DAVIS240 on USB through libcaer (opened at run time).
-    Caer(CaerSource),
-    /// Generated approaches to a pole, played in real time: the bench and tests only,
-    /// and `faithd run` takes it only with `--simulated-camera`.
-    Sim(SimSource),
-}
-
-impl Default for SourceConfig {
-    fn default() -> Self {
-        SourceConfig::Caer(CaerSource::default())
-    }
-}
-
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct CaerSource {
-    /// Where libcaer is; empty = the system loader's search for libcaer.so.3.
-    pub libcaer_path: String,
-    /// libcaer settings applied after its defaults, as [module, parameter, value]
-    /// (biases and filters; see libcaer's davis.h for the addresses).
-    pub caer_settings: Vec<(i8, u8, u32)>,
-}
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -56,18 +28,6 @@ impl Default for SimSource {
             first_approach_us: 1_000_000,
             repeat_us: 5_000_000,
             seed: 1,
-        }
-    }
-}
-
-impl SourceConfig {
-    /// `[source]`: a simulated camera repeats its approach at most once a second.
-    pub fn validate(&self) -> Result<(), Invalid> {
-        match self {
-            SourceConfig::Caer(_) => Ok(()),
-            SourceConfig::Sim(sim) => check(sim.repeat_us >= 1_000_000, "source.repeat_us", || {
-                format!("must be at least 1 s, got {}", sim.repeat_us)
-            }),
         }
     }
 }
@@ -100,7 +60,7 @@ pub fn run_sim(
     let mut start_us = i64::try_from(config.first_approach_us).unwrap_or(i64::MAX);
     let mut next = 0usize;
     let mut dropped = 0u64;
-    let mut drop_log = super::cycle::Throttle::new(5_000_000);
+    let mut drop_log = crate::logging::Throttle::new(5_000_000);
     loop {
         std::thread::sleep(BATCH_PERIOD);
         let now_us = clock.now_us();

@@ -15,7 +15,7 @@ use std::sync::OnceLock;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::time::Duration;
 
-use super::clock::DaemonClock;
+use crate::clock::DaemonClock;
 
 /// How often a supervised task beats, at least.
 pub const BEAT_PERIOD: Duration = Duration::from_millis(100);

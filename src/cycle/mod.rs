@@ -6,57 +6,90 @@
 //! skips the missed periods instead of running back to back. The MAVLink side never
 //! waits for this thread: everything leaves it through non-blocking sends.
 
+pub mod shed;
+
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
+use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
-use super::DaemonConfig;
-use super::clock::DaemonClock;
-use super::shed::Shedder;
+use crate::clock::DaemonClock;
+use crate::logging::Throttle;
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::{Action, Decision};
 use faithd_core::event::Event;
+use faithd_core::invalid::{Invalid, check};
 use faithd_core::pipeline::{Pipeline, PipelineConfig};
 use faithd_core::safety::gate::{PipelineProblem, PipelineStatus};
 use faithd_formats::window_log::WindowLine;
 use faithd_formats::window_log::WindowLogLine;
+use shed::Shedder;
+
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DaemonConfig {
+    /// Pipeline cycle period (10 ms = 100 decisions per second).
+    pub period_us: i64,
+    /// A cycle longer than this is an overrun: the next cycles shed load.
+    pub budget_us: i64,
+    /// Load shedding never goes below these.
+    pub shed_min_vectors: usize,
+    pub shed_min_iterations: u32,
+    /// No event batch for this long: the camera is gone, the pipeline unhealthy.
+    pub event_stale_us: i64,
+}
+
+impl Default for DaemonConfig {
+    fn default() -> Self {
+        Self {
+            period_us: 10_000,
+            budget_us: 8_000,
+            shed_min_vectors: 300,
+            shed_min_iterations: 13,
+            event_stale_us: 200_000,
+        }
+    }
+}
+
+impl DaemonConfig {
+    /// `[daemon]`: a period of 1 to 100 ms and a budget within it.
+    pub fn validate(&self) -> Result<(), Invalid> {
+        let d = self;
+        check(
+            (1000..=100_000).contains(&d.period_us),
+            "daemon.period_us",
+            || format!("must be 1 to 100 ms, got {}", d.period_us),
+        )?;
+        check(
+            d.budget_us > 0 && d.budget_us <= d.period_us,
+            "daemon.budget_us",
+            || {
+                format!(
+                    "must be positive and at most period_us, got {}",
+                    d.budget_us
+                )
+            },
+        )?;
+        check(d.shed_min_vectors >= 1, "daemon.shed_min_vectors", || {
+            "must be at least 1".into()
+        })?;
+        check(
+            d.shed_min_iterations >= 1,
+            "daemon.shed_min_iterations",
+            || "must be at least 1".into(),
+        )?;
+        check(
+            (1000..=10_000_000).contains(&d.event_stale_us),
+            "daemon.event_stale_us",
+            || format!("must be 1 ms to 10 s, got {}", d.event_stale_us),
+        )
+    }
+}
 
 /// Repeated warnings (overruns) are logged at most this often, with a count.
 const LOG_EVERY_US: i64 = 5_000_000;
-
-/// Logs the first of a run of events at once and then at most once per period, with
-/// how many happened since the last line.
-#[derive(Debug)]
-pub struct Throttle {
-    period_us: i64,
-    last_line_us: Option<i64>,
-    since: u64,
-}
-
-impl Throttle {
-    pub fn new(period_us: i64) -> Self {
-        Self {
-            period_us,
-            last_line_us: None,
-            since: 0,
-        }
-    }
-
-    /// Counts one event; calls `log` with the count since the last line when due.
-    pub fn event(&mut self, now_us: i64, log: impl FnOnce(u64)) {
-        self.since += 1;
-        if self
-            .last_line_us
-            .is_none_or(|t| now_us - t >= self.period_us)
-        {
-            log(self.since);
-            self.since = 0;
-            self.last_line_us = Some(now_us);
-        }
-    }
-}
 
 /// A roll decision and the newest event of the window that produced it.
 #[derive(Clone, Copy, Debug)]
@@ -72,7 +105,7 @@ pub struct CycleIo {
     /// The newest roll decision: a newer one replaces one the commander has not
     /// read yet (it only acts on fresh decisions), so none is ever refused.
     pub decisions: watch::Sender<Option<RollDecision>>,
-    pub recorder: Option<super::record::Recorder>,
+    pub recorder: Option<crate::record::Recorder>,
     /// Set when the daemon stops: the thread ends at its next period.
     pub stop: Arc<std::sync::atomic::AtomicBool>,
 }
@@ -116,7 +149,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
                 Ok(batch) => {
                     last_batch_us = clock.now_us();
                     if let (Some(r), false) = (&io.recorder, batch.is_empty()) {
-                        r.send(super::record::Item::Events(batch.clone()));
+                        r.send(crate::record::Item::Events(batch.clone()));
                     }
                     pending.extend(batch);
                 }
@@ -178,7 +211,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
                 max_vectors,
                 foe_iterations,
             };
-            recorder.send(super::record::Item::Window(
+            recorder.send(crate::record::Item::Window(
                 serde_json::to_string(&logged).expect("window line serialises"),
             ));
         }
@@ -213,20 +246,5 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             let missed = (now - next_us) / config.period_us + 1;
             next_us += missed * config.period_us;
         }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Throttle;
-
-    #[test]
-    fn a_throttle_logs_the_first_then_once_per_period_with_the_count() {
-        let mut throttle = Throttle::new(1000);
-        let mut lines = Vec::new();
-        for t in 0..2500 {
-            throttle.event(t, |n| lines.push((t, n)));
-        }
-        assert_eq!(lines, [(0, 1), (1000, 1000), (2000, 1000)]);
     }
 }
