@@ -1,0 +1,70 @@
+//! The crate boundaries hold: the core links nothing that does I/O, and the flight
+//! build (no `sim` feature) links neither the simulator nor plotters. Read from
+//! `cargo tree`, i.e. from what cargo would actually build.
+
+use std::process::Command;
+
+/// The normal (non-dev) dependencies of `package` with `args`, one crate name a line.
+fn dependencies(package: &str, args: &[&str]) -> Vec<String> {
+    let out = Command::new(env!("CARGO"))
+        .args([
+            "tree",
+            "--offline",
+            "-e",
+            "normal",
+            "--prefix",
+            "none",
+            "-p",
+            package,
+        ])
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run cargo tree");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_owned))
+        .collect()
+}
+
+#[test]
+fn the_core_links_no_runtime_protocol_format_or_plotting_crate() {
+    let deps = dependencies("faithd-core", &[]);
+    assert!(deps.iter().any(|d| d == "nalgebra"), "{deps:?}");
+    for banned in [
+        "tokio",
+        "tokio-serial",
+        "mavlink",
+        "plotters",
+        "zstd",
+        "lz4_flex",
+        "tracing-subscriber",
+        "tracing",
+        "serde_json",
+        "faithd-formats",
+    ] {
+        assert!(
+            !deps.iter().any(|d| d == banned),
+            "faithd-core links {banned}"
+        );
+    }
+}
+
+#[test]
+fn the_flight_build_links_no_simulator() {
+    let flight = dependencies("faithd", &["--no-default-features"]);
+    assert!(flight.iter().any(|d| d == "faithd-core"), "{flight:?}");
+    for banned in ["faithd-sim", "plotters"] {
+        assert!(
+            !flight.iter().any(|d| d == banned),
+            "the flight build links {banned}"
+        );
+    }
+    let workstation = dependencies("faithd", &[]);
+    assert!(workstation.iter().any(|d| d == "faithd-sim"));
+}
