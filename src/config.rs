@@ -86,10 +86,14 @@ impl FaithdConfig {
             match key.as_str() {
                 // Not under any key (a missing table, say): toml's own message.
                 "." | "" => ParseError::Toml(error.to_string()),
-                _ => ParseError::Invalid(Invalid {
-                    key,
-                    reason: error.message().to_owned(),
-                }),
+                _ => {
+                    let mut reason = error.message().to_owned();
+                    if let Some(hint) = moved_key(&key, &reason) {
+                        reason.push_str("; ");
+                        reason.push_str(hint);
+                    }
+                    ParseError::Invalid(Invalid { key, reason })
+                }
             }
         })?;
         config.validate().map_err(ParseError::Invalid)?;
@@ -127,6 +131,47 @@ impl std::fmt::Display for ParseError {
             ParseError::Invalid(Invalid { key, reason }) => write!(f, "`{key}` {reason}"),
         }
     }
+}
+
+/// Keys that faithd read flat before the typed config, and where they went: a config
+/// written for it is refused with the new place of the key, not just "unknown field".
+const MOVED_KEYS: [(&str, &str, &str); 5] = [
+    (
+        "command",
+        "msp_endpoint",
+        "it is now `endpoint` under [command.sink] (kind = \"msp\")",
+    ),
+    (
+        "command",
+        "msp_baud",
+        "it is now `baud` under [command.sink] (kind = \"msp\")",
+    ),
+    (
+        "source",
+        "sim_first_approach_us",
+        "it is now `first_approach_us` (with kind = \"sim\")",
+    ),
+    (
+        "source",
+        "sim_repeat_us",
+        "it is now `repeat_us` (with kind = \"sim\")",
+    ),
+    (
+        "source",
+        "sim_seed",
+        "it is now `seed` (with kind = \"sim\")",
+    ),
+];
+
+/// Where a key the parse refused has moved, if it is one that did.
+fn moved_key(key: &str, reason: &str) -> Option<&'static str> {
+    if key == "command.sink" && reason.starts_with("invalid type: string") {
+        return Some("the sink is now a table: [command.sink] with kind = \"msp\"");
+    }
+    MOVED_KEYS.iter().find_map(|&(section, old, hint)| {
+        let named = key.starts_with(section) && reason.contains(&format!("unknown field `{old}`"));
+        named.then_some(hint)
+    })
 }
 
 /// What one section cannot check alone: the gate's staleness against the daemon's
@@ -329,6 +374,25 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_key_of_the_flat_layout_says_where_it_went() {
+        for (text, moved_to) in [
+            (
+                "[command]\nmsp_endpoint = \"serial:/dev/ttyS1\"\n",
+                "[command.sink]",
+            ),
+            ("[command]\nsink = \"msp\"\n", "[command.sink]"),
+            ("[source]\nkind = \"sim\"\nsim_seed = 3\n", "`seed`"),
+        ] {
+            let err = FaithdConfig::parse(text).unwrap_err().to_string();
+            assert!(err.contains(moved_to), "{text}: {err}");
+        }
+        let refused = FaithdConfig::parse("[command.sink]\nkind = \"mavlink\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(!refused.contains("now a table"), "{refused}");
     }
 
     #[test]
