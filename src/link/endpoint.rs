@@ -148,11 +148,6 @@ impl Endpoint {
         Self { address, baud }
     }
 
-    /// [`Address::parse`] with a baud rate (for tests and tools).
-    pub fn parse(text: &str, baud: u32) -> Result<Self, String> {
-        Address::parse(text).map(|address| Self::new(address, baud))
-    }
-
     /// Opens the endpoint within [`OPEN_TIMEOUT`].
     ///
     /// A serial port starts empty: what the kernel queued before faithd opened it
@@ -271,8 +266,8 @@ mod tests {
     #[test]
     fn parses_every_form_and_names_the_problem() {
         assert_eq!(
-            Endpoint::parse("serial:/dev/ttyAMA0", 115_200).unwrap(),
-            Endpoint::new(Address::Serial("/dev/ttyAMA0".into()), 115_200)
+            Address::parse("serial:/dev/ttyAMA0").unwrap(),
+            Address::Serial("/dev/ttyAMA0".into())
         );
         assert_eq!(
             Address::parse("/dev/ttyACM0").unwrap(),

@@ -26,38 +26,35 @@ enum Exit {
     Differs = 3,
 }
 
-/// Why a command did not succeed: its exit status and what to tell the user (none
-/// when the command's own output already said it).
+/// Why a command did not succeed: its exit status and why (none when the command's
+/// own output already said it).
 #[derive(Debug)]
 struct Failure {
     exit: Exit,
-    message: Option<String>,
+    why: Option<String>,
 }
 
 impl Failure {
     fn failed(why: impl Display) -> Self {
-        Self::with(Exit::Failed, format!("error: {why}"))
+        Self::with(Exit::Failed, why)
     }
 
     fn refused(why: impl Display) -> Self {
-        Self::with(Exit::Refused, format!("error: {why}"))
+        Self::with(Exit::Refused, why)
     }
 
     fn differs(why: impl Display) -> Self {
-        Self::with(Exit::Differs, why.to_string())
+        Self::with(Exit::Differs, why)
     }
 
     fn reported(exit: Exit) -> Self {
-        Self {
-            exit,
-            message: None,
-        }
+        Self { exit, why: None }
     }
 
-    fn with(exit: Exit, message: String) -> Self {
+    fn with(exit: Exit, why: impl Display) -> Self {
         Self {
             exit,
-            message: Some(message),
+            why: Some(why.to_string()),
         }
     }
 }
@@ -119,14 +116,13 @@ fn main() -> ExitCode {
     let exit = match try_main(cli.command) {
         Ok(()) => Exit::Ok,
         Err(failure) => {
-            if let Some(message) = &failure.message {
-                // The daemon's story is in its log (the journal); the tools talk
-                // to a terminal.
-                if daemon {
-                    tracing::error!("{}", message.trim_start_matches("error: "));
-                } else {
-                    eprintln!("{message}");
-                }
+            // The daemon's story is in its log (the journal); the tools talk to a
+            // terminal. A replay that differs is a finding, not an error.
+            match (&failure.why, daemon, failure.exit) {
+                (None, ..) => {}
+                (Some(why), true, _) => tracing::error!("{why}"),
+                (Some(why), false, Exit::Differs) => eprintln!("{why}"),
+                (Some(why), false, _) => eprintln!("error: {why}"),
             }
             failure.exit
         }
