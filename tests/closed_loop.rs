@@ -1,35 +1,55 @@
-//! Closed loop, end to end: the daemon's own tasks and safety gate, MAVLink bytes on
-//! a loopback socket to a simulated iNav, a simulated quadrotor and camera.
+//! Closed loop, end to end, in simulated time: the daemon's own `serve()` (link,
+//! pipeline, commander, safety gate, MSP stream) with MAVLink and MSP bytes on
+//! simulated UARTs to a simulated iNav, a simulated quadrotor, and the ray-traced
+//! DVS camera rendering its true path.
 
-use faithd::closed_loop::{FlightSpec, fly};
+use faithd::closed_loop::{CameraKind, FlightOutcome, FlightSpec, FlyOptions, SceneKind, fly};
+use faithd::cycle::compute::ComputeCharge;
 
-#[test]
-fn a_collision_course_is_avoided() {
-    let o = fly(&FlightSpec {
+fn collision_course() -> FlightSpec {
+    FlightSpec {
         lateral_offset_m: 0.1,
         seed: 3,
         ..Default::default()
-    })
-    .unwrap();
+    }
+}
+
+/// The outcome as `faithd sim --json` would publish it.
+fn json(o: &FlightOutcome) -> String {
+    serde_json::to_string(o).unwrap()
+}
+
+#[test]
+fn a_collision_course_is_avoided() {
+    let o = fly(&collision_course(), &FlyOptions::default()).unwrap();
     assert!(o.collision_course);
     assert!(o.rolled, "no roll on a collision course");
     assert!(!o.collided, "hit the pole: clearance {}", o.min_clearance_m);
     let ttc = o.ttc_at_decision_s.unwrap();
-    assert!((0.5..2.5).contains(&ttc), "rolled at true TTC {ttc}");
+    assert!((0.8..2.5).contains(&ttc), "rolled at true TTC {ttc}");
+    // Pipeline compute, the commander's tick, the MSP frame on a 115200 baud UART
+    // and iNav's next loop: milliseconds, in simulated time.
     let latency = o.latency_ms.unwrap();
-    assert!(latency < 50.0, "latency {latency} ms");
+    assert!((1.0..30.0).contains(&latency), "latency {latency} ms");
+    assert!(o.latency_from_first_call_ms.unwrap() >= latency);
+    assert!(o.events > 100_000, "the camera fired {} events", o.events);
+    assert!(o.pipeline.cycles > 250, "{:?}", o.pipeline);
+    assert_eq!(o.pipeline.overruns, 0, "{:?}", o.pipeline);
 }
 
 #[test]
 fn a_near_pass_is_left_alone() {
-    let o = fly(&FlightSpec {
-        lateral_offset_m: -0.9,
-        seed: 4,
-        ..Default::default()
-    })
+    let o = fly(
+        &FlightSpec {
+            lateral_offset_m: -0.9,
+            seed: 4,
+            ..Default::default()
+        },
+        &FlyOptions::default(),
+    )
     .unwrap();
     assert!(!o.collision_course);
-    assert!(!o.rolled, "rolled on a near pass");
+    assert!(!o.rolled, "rolled on a near pass: {:?}", o.decision);
     assert!(!o.collided);
     // Flying straight, the gap is the course offset less pole radius and half-span.
     assert!(
@@ -41,12 +61,14 @@ fn a_near_pass_is_left_alone() {
 
 #[test]
 fn with_the_switch_in_manual_the_vehicle_hits_the_pole() {
-    let o = fly(&FlightSpec {
-        lateral_offset_m: 0.1,
-        pilot_auto: false,
-        seed: 3,
-        ..Default::default()
-    })
+    let o = fly(
+        &FlightSpec {
+            pilot_auto: false,
+            camera: CameraKind::Line,
+            ..collision_course()
+        },
+        &FlyOptions::default(),
+    )
     .unwrap();
     assert!(!o.rolled);
     assert!(
@@ -54,4 +76,83 @@ fn with_the_switch_in_manual_the_vehicle_hits_the_pole() {
         "the pilot kept MANUAL: faithd must not have steered"
     );
     assert!(o.path.iter().all(|p| p.roll_us == 1500));
+}
+
+/// The same flight twice, the second with both cores kept busy beside it: the
+/// outcome is the same to the last byte (simulated time, the modelled compute, one
+/// thread per flight).
+#[test]
+fn a_flight_is_the_same_on_every_run_and_under_any_load() {
+    let spec = FlightSpec {
+        scene: SceneKind::Kitchen,
+        ..collision_course()
+    };
+    let options = FlyOptions::default();
+    let first = json(&fly(&spec, &options).unwrap());
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let hogs: Vec<_> = (0..2)
+        .map(|_| {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                let mut x = 0u64;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+                }
+            })
+        })
+        .collect();
+    let second = json(&fly(&spec, &options).unwrap());
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    for h in hogs {
+        h.join().unwrap();
+    }
+    assert_eq!(first, second);
+}
+
+/// A board ten times slower than this machine overruns the 8 ms budget and sheds
+/// load, as the daemon would on it; this machine does not.
+#[test]
+fn a_slow_board_overruns_and_sheds_load() {
+    let spec = FlightSpec {
+        camera: CameraKind::Line,
+        ..collision_course()
+    };
+    let here = fly(&spec, &FlyOptions::default()).unwrap();
+    let slow = fly(
+        &spec,
+        &FlyOptions {
+            compute: ComputeCharge::modelled(10.0),
+        },
+    )
+    .unwrap();
+    assert_eq!(here.pipeline.overruns, 0, "{:?}", here.pipeline);
+    assert!(slow.pipeline.overruns > 0, "{:?}", slow.pipeline);
+    assert!(slow.pipeline.shed_cycles > 0, "{:?}", slow.pipeline);
+    assert!(slow.pipeline.max_load_level >= 1);
+    // Late cycles skip periods: fewer of them in the same flight.
+    assert!(slow.pipeline.cycles < here.pipeline.cycles);
+    // Ten times the cost, less what the shed load saves.
+    assert!(
+        slow.pipeline.charged_us_p50 > 3.0 * here.pipeline.charged_us_p50,
+        "{:?} vs {:?}",
+        slow.pipeline,
+        here.pipeline
+    );
+}
+
+/// Charging the measured time instead of the model flies too (not repeatable).
+#[test]
+fn measured_compute_flies_too() {
+    let o = fly(
+        &FlightSpec {
+            camera: CameraKind::Line,
+            ..collision_course()
+        },
+        &FlyOptions {
+            compute: ComputeCharge::Measured { cpu_scale: 1.0 },
+        },
+    )
+    .unwrap();
+    assert!(o.rolled && !o.collided);
+    assert!(o.pipeline.charged_us_p50 > 1.0, "{:?}", o.pipeline);
 }

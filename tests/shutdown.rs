@@ -11,7 +11,7 @@ use std::time::Duration;
 
 use common::autopilot::{Controls, MockAutopilot};
 use faithd::clock::DaemonClock;
-use faithd::daemon::{Ended, Hooks, serve};
+use faithd::daemon::{Ended, Execution, Hooks, serve};
 use faithd::source::{SourceConfig, sim::run_sim};
 
 /// Sets its flag when dropped: when the thread that owns it has ended.
@@ -35,10 +35,12 @@ fn a_requested_stop_joins_every_thread_before_serve_returns() {
     let camera = config.pipeline.camera;
     let hooks = Hooks {
         clock: DaemonClock::start(),
-        source: Box::new(move |clock, batches| {
-            let _ended = SetOnDrop(flag);
-            run_sim(source_config, camera, clock, batches);
-        }),
+        execution: Execution::Threads {
+            source: Box::new(move |clock, batches| {
+                let _ended = SetOnDrop(flag);
+                run_sim(source_config, camera, clock, batches);
+            }),
+        },
         observer: None,
     };
     let ended = tokio::runtime::Builder::new_multi_thread()

@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use common::autopilot::{Controls, MockAutopilot};
 use common::msp::is_roll;
 use faithd::clock::DaemonClock;
-use faithd::daemon::{Ended, Hooks, serve};
+use faithd::daemon::{Ended, Execution, Hooks, serve};
 use faithd::source::{SourceConfig, sim::run_sim};
 use faithd::supervise;
 
@@ -30,16 +30,18 @@ fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault()
     let trigger = panic_now.clone();
     let hooks = Hooks {
         clock: DaemonClock::start(),
-        source: Box::new(move |clock, batches| {
-            let (tx, rx) = std::sync::mpsc::sync_channel(256);
-            std::thread::spawn(move || run_sim(source_config, camera, clock, tx));
-            for batch in rx {
-                assert!(!trigger.load(Ordering::SeqCst), "injected camera fault");
-                if batches.send(batch).is_err() {
-                    return;
+        execution: Execution::Threads {
+            source: Box::new(move |clock, batches| {
+                let (tx, rx) = std::sync::mpsc::sync_channel(256);
+                std::thread::spawn(move || run_sim(source_config, camera, clock, tx));
+                for batch in rx {
+                    assert!(!trigger.load(Ordering::SeqCst), "injected camera fault");
+                    if batches.send(batch).is_err() {
+                        return;
+                    }
                 }
-            }
-        }),
+            }),
+        },
         observer: None,
     };
     let daemon = std::thread::spawn(move || {

@@ -1,57 +1,126 @@
-//! A simulated iNav: MAVLink telemetry on a loopback UDP socket (HEARTBEAT, ATTITUDE
-//! and RC_CHANNELS every 40 ms, iNav's fastest stream) and an MSP port on loopback
-//! TCP that takes faithd's roll stream the way iNav's MSP RC override does
-//! ([`super::inav_msp`]). Like iNav with a radio receiver, it ignores
-//! RC_CHANNELS_OVERRIDE.
+//! A simulated iNav on two UARTs inside the process ([`super::uart`]): MAVLink
+//! telemetry (ATTITUDE and RC_CHANNELS every 40 ms, iNav's fastest stream, SYS_STATUS
+//! every 120 ms, HEARTBEAT every second, as the committed set-up has iNav send them)
+//! and an MSP port that takes faithd's roll stream the way iNav's MSP RC override
+//! does ([`super::inav_msp`]). Like iNav with a radio receiver, it ignores
+//! RC_CHANNELS_OVERRIDE. Every byte goes through faithd's real MAVLink and MSP code,
+//! in simulated time.
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use mavlink::dialects::common::*;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::net::{TcpListener, UdpSocket};
+use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream, ReadHalf, WriteHalf};
+use tokio::sync::mpsc;
 
 use super::inav_mavlink::{self, encode};
 use super::inav_msp::{FcView, InavMsp, Setup};
 use super::physics::Shared;
+use super::uart;
 use crate::clock::DaemonClock;
+use crate::link::endpoint::InProcessPort;
 
 /// The autopilot's boot clock runs on its own origin, as a real one does.
 const BOOT_OFFSET_MS: i64 = 73_000;
 
-pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
-    let mut peer: Option<SocketAddr> = None;
+/// Both UARTs run at iNav's default MAVLink and MSP speed.
+pub const BAUD: u32 = 115_200;
+
+/// The simulated iNav's two ports, for faithd's config.
+pub struct SimulatedInav {
+    pub mavlink: InProcessPort,
+    pub msp: InProcessPort,
+}
+
+/// Starts the simulated iNav on the current (simulated-time) runtime.
+pub fn start(shared: Arc<Shared>, clock: DaemonClock) -> SimulatedInav {
+    let (mavlink, mavlink_sessions) = port("inav-mavlink");
+    let (msp, msp_sessions) = port("inav-msp");
+    tokio::spawn(run_mavlink(mavlink_sessions, shared.clone(), clock));
+    tokio::spawn(run_msp(msp_sessions, shared, clock));
+    SimulatedInav { mavlink, msp }
+}
+
+/// A port whose every open is a fresh UART session handed to the device's task.
+fn port(name: &'static str) -> (InProcessPort, mpsc::UnboundedReceiver<DuplexStream>) {
+    let (tx, rx) = mpsc::unbounded_channel();
+    let port = InProcessPort::new(name, move || {
+        let (faithd, device) = uart::pair(BAUD);
+        tx.send(device).map_err(|_| {
+            std::io::Error::new(
+                std::io::ErrorKind::NotConnected,
+                "the simulated iNav has stopped",
+            )
+        })?;
+        Ok(Box::pin(faithd))
+    });
+    (port, rx)
+}
+
+/// One UART session, split so the device can write while it reads.
+struct Session {
+    rx: ReadHalf<DuplexStream>,
+    tx: WriteHalf<DuplexStream>,
+}
+
+impl Session {
+    fn new(stream: DuplexStream) -> Self {
+        let (rx, tx) = tokio::io::split(stream);
+        Self { rx, tx }
+    }
+}
+
+/// Reads from the session if there is one; never resolves otherwise.
+async fn read(session: &mut Option<Session>, buf: &mut [u8]) -> std::io::Result<usize> {
+    match session {
+        Some(s) => s.rx.read(buf).await,
+        None => std::future::pending().await,
+    }
+}
+
+async fn run_mavlink(
+    mut sessions: mpsc::UnboundedReceiver<DuplexStream>,
+    shared: Arc<Shared>,
+    clock: DaemonClock,
+) {
+    let mut session: Option<Session> = None;
     let mut tick = tokio::time::interval(Duration::from_millis(40));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut n = 0u64;
     let mut seq = 0u8;
-    let mut buf = vec![0u8; 4096];
+    let mut buf = vec![0u8; 1024];
     loop {
         tokio::select! {
-            got = socket.recv_from(&mut buf) => {
-                let Ok((len, from)) = got else { continue };
-                let mut reader = mavlink::MavlinkReader::new(&buf[..len]);
-                while let Ok((header, _)) = reader.read_any_message::<MavMessage>() {
-                    if header.component_id == 191 {
-                        peer = Some(from);
-                    }
-                }
-            }
+            biased;
+            opened = sessions.recv() => match opened {
+                // A reopened port replaces the old session, as on a UART.
+                Some(stream) => session = Some(Session::new(stream)),
+                None => return,
+            },
             _ = tick.tick() => {
-                let Some(to) = peer else { continue };
                 let mut out = Vec::new();
                 let (attitude, roll_us, switch_us) = telemetry(&shared, &clock);
                 for msg in [attitude, rc_channels(&clock, roll_us, switch_us)] {
                     encode(&mut out, &mut seq, &msg);
                 }
+                if n.is_multiple_of(3) {
+                    encode(&mut out, &mut seq, &inav_mavlink::sys_status(true));
+                }
                 if n.is_multiple_of(25) {
                     encode(&mut out, &mut seq, &inav_mavlink::heartbeat(true, MavState::MAV_STATE_ACTIVE));
                 }
                 n += 1;
-                let _ = socket.send_to(&out, to).await;
+                if let Some(s) = &mut session
+                    && s.tx.write_all(&out).await.is_err()
+                {
+                    session = None;
+                }
             }
+            // faithd's HEARTBEAT (and anything else it sends) is read and ignored.
+            got = read(&mut session, &mut buf) => if matches!(got, Ok(0) | Err(_)) {
+                session = None;
+            },
         }
     }
 }
@@ -59,31 +128,44 @@ pub async fn run(socket: UdpSocket, shared: Arc<Shared>, clock: DaemonClock) {
 /// The pilot's roll stick in the simulated flights: centred.
 const PILOT_ROLL_US: u16 = 1500;
 
-/// iNav's MSP port on a loopback TCP listener: one connection at a time (faithd
-/// reopens after a loss), the roll iNav uses published to the physics every 5 ms.
-pub async fn run_msp(listener: TcpListener, shared: Arc<Shared>, clock: DaemonClock) {
+/// iNav's MSP port: one session at a time (faithd reopens after a loss), the roll
+/// iNav uses published to the physics every 5 ms and at every frame.
+async fn run_msp(
+    mut sessions: mpsc::UnboundedReceiver<DuplexStream>,
+    shared: Arc<Shared>,
+    clock: DaemonClock,
+) {
     let mut fc = InavMsp::new(Setup::default());
+    let mut session: Option<Session> = None;
+    let mut tick = tokio::time::interval(Duration::from_millis(5));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut buf = [0u8; 1024];
     loop {
-        let Ok((mut stream, _)) = listener.accept().await else {
-            return;
-        };
-        let _ = stream.set_nodelay(true);
-        let mut tick = tokio::time::interval(Duration::from_millis(5));
-        let mut buf = [0u8; 1024];
-        loop {
-            tokio::select! {
-                got = stream.read(&mut buf) => {
-                    let n = match got { Ok(0) | Err(_) => break, Ok(n) => n };
-                    let now_us = clock.now_us();
-                    let (_, roll_us, switch_us) = telemetry(&shared, &clock);
-                    let rc = rc_in_use(roll_us, switch_us);
-                    let out = fc.receive(&buf[..n], now_us, FcView::flying(rc));
-                    if stream.write_all(&out).await.is_err() {
-                        break;
+        tokio::select! {
+            biased;
+            opened = sessions.recv() => match opened {
+                Some(stream) => session = Some(Session::new(stream)),
+                None => return,
+            },
+            _ = tick.tick() => publish_roll(&fc, &shared, &clock),
+            got = read(&mut session, &mut buf) => {
+                let n = match got {
+                    Ok(0) | Err(_) => {
+                        session = None;
+                        continue;
                     }
-                    publish_roll(&fc, &shared, &clock);
+                    Ok(n) => n,
+                };
+                let now_us = clock.now_us();
+                let (_, roll_us, switch_us) = telemetry(&shared, &clock);
+                let rc = rc_in_use(roll_us, switch_us);
+                let out = fc.receive(&buf[..n], now_us, FcView::flying(rc));
+                if let Some(s) = &mut session
+                    && s.tx.write_all(&out).await.is_err()
+                {
+                    session = None;
                 }
-                _ = tick.tick() => publish_roll(&fc, &shared, &clock),
+                publish_roll(&fc, &shared, &clock);
             }
         }
     }

@@ -9,7 +9,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
-use super::{FlightOutcome, FlightSpec};
+use super::{FlightOutcome, FlightSpec, FlyOptions, fly};
 
 /// Draws `runs` flights from `seed`.
 pub fn plan(runs: usize, seed: u64) -> Vec<FlightSpec> {
@@ -53,6 +53,54 @@ pub fn plan(runs: usize, seed: u64) -> Vec<FlightSpec> {
         .collect()
 }
 
+/// Flies every spec, `threads` at a time, each flight on its own simulated-time
+/// runtime; `done` hears each outcome as it lands (in any order). Outcomes come
+/// back in spec order and do not depend on `threads`.
+pub fn fly_all(
+    specs: &[FlightSpec],
+    options: &FlyOptions,
+    threads: usize,
+    done: impl Fn(usize, &FlightOutcome) + Sync,
+) -> Result<Vec<FlightOutcome>, String> {
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let slots: Vec<std::sync::Mutex<Option<FlightOutcome>>> =
+        specs.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    let failure = std::sync::Mutex::new(None::<String>);
+    std::thread::scope(|s| {
+        for _ in 0..threads.clamp(1, specs.len().max(1)) {
+            s.spawn(|| {
+                loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    if i >= specs.len() || failure.lock().expect("failure lock").is_some() {
+                        return;
+                    }
+                    match fly(&specs[i], options) {
+                        Ok(o) => {
+                            done(i, &o);
+                            *slots[i].lock().expect("slot lock") = Some(o);
+                        }
+                        Err(e) => {
+                            *failure.lock().expect("failure lock") =
+                                Some(format!("flight {} failed to run: {e}", i + 1));
+                        }
+                    }
+                }
+            });
+        }
+    });
+    if let Some(why) = failure.into_inner().expect("failure lock") {
+        return Err(why);
+    }
+    Ok(slots
+        .into_iter()
+        .map(|s| {
+            s.into_inner()
+                .expect("slot lock")
+                .expect("every flight flown")
+        })
+        .collect())
+}
+
 /// The experiment's figures. Key names are published (docs/design.md, Commands): add,
 /// never rename.
 #[derive(Clone, Debug, Serialize)]
@@ -66,7 +114,7 @@ pub struct SimSummary {
     pub false_avoidances: usize,
     /// avoided / collision_courses.
     pub success_rate: f64,
-    /// Newest event of the deciding window to the first roll frame at the autopilot.
+    /// Newest event of the deciding window to the roll in use at the autopilot.
     pub latency_ms_p50: f64,
     pub latency_ms_p99: f64,
     pub seed: u64,
@@ -74,16 +122,48 @@ pub struct SimSummary {
     pub near_pass_contacts: usize,
     /// True time to contact when the roll started, collision courses, median.
     pub ttc_at_decision_s_p50: f64,
+    /// The same latency from the first roll call of the run that led to the roll:
+    /// with the time the safety gate held the roll.
+    pub latency_from_first_call_ms_p50: f64,
+    pub latency_from_first_call_ms_p99: f64,
+    /// The camera and the board: "dvs" or "line", the cpu scale, "model" or
+    /// "measured" (a measured run is not repeatable).
+    pub camera: super::CameraKind,
+    pub cpu_scale: f64,
+    pub compute: &'static str,
+    /// The pipeline's cycles over all flights, as charged in simulated time.
+    pub cycles: usize,
+    pub cycle_ms_p50: f64,
+    pub cycle_ms_p99: f64,
+    pub overruns: usize,
+    pub shed_cycles: usize,
+    pub dropped_batches: u64,
+    /// Seconds of flight simulated, and the events the camera fired in them.
+    pub simulated_s: f64,
+    pub events: u64,
 }
 
-pub fn summarise(outcomes: &[FlightOutcome], seed: u64) -> SimSummary {
+pub fn summarise(outcomes: &[FlightOutcome], seed: u64, options: &FlyOptions) -> SimSummary {
     let courses: Vec<_> = outcomes.iter().filter(|o| o.collision_course).collect();
     let near: Vec<_> = outcomes.iter().filter(|o| !o.collision_course).collect();
     let avoided = courses.iter().filter(|o| !o.collided).count();
-    let mut latencies: Vec<f64> = outcomes.iter().filter_map(|o| o.latency_ms).collect();
-    latencies.sort_by(f64::total_cmp);
-    let mut ttcs: Vec<f64> = courses.iter().filter_map(|o| o.ttc_at_decision_s).collect();
-    ttcs.sort_by(f64::total_cmp);
+    let sorted = |values: Vec<f64>| {
+        let mut v = values;
+        v.sort_by(f64::total_cmp);
+        v
+    };
+    let latencies = sorted(outcomes.iter().filter_map(|o| o.latency_ms).collect());
+    let from_first = sorted(
+        outcomes
+            .iter()
+            .filter_map(|o| o.latency_from_first_call_ms)
+            .collect(),
+    );
+    let ttcs = sorted(courses.iter().filter_map(|o| o.ttc_at_decision_s).collect());
+    // Cycle percentiles over flights: the median of the flights' medians, the
+    // highest of their p99s.
+    let cycle_p50 = sorted(outcomes.iter().map(|o| o.pipeline.charged_us_p50).collect());
+    let sum = |f: fn(&FlightOutcome) -> usize| outcomes.iter().map(f).sum::<usize>();
     SimSummary {
         runs: outcomes.len(),
         collision_courses: courses.len(),
@@ -100,11 +180,36 @@ pub fn summarise(outcomes: &[FlightOutcome], seed: u64) -> SimSummary {
         seed,
         near_pass_contacts: near.iter().filter(|o| o.collided).count(),
         ttc_at_decision_s_p50: percentile(&ttcs, 0.5),
+        latency_from_first_call_ms_p50: percentile(&from_first, 0.5),
+        latency_from_first_call_ms_p99: percentile(&from_first, 0.99),
+        camera: outcomes
+            .first()
+            .map_or_else(Default::default, |o| o.spec.camera),
+        cpu_scale: options.compute.cpu_scale(),
+        compute: match options.compute {
+            crate::cycle::compute::ComputeCharge::Model { .. } => "model",
+            crate::cycle::compute::ComputeCharge::Measured { .. } => "measured",
+        },
+        cycles: sum(|o| o.pipeline.cycles),
+        cycle_ms_p50: percentile(&cycle_p50, 0.5) / 1e3,
+        cycle_ms_p99: outcomes
+            .iter()
+            .map(|o| o.pipeline.charged_us_p99)
+            .fold(f64::NAN, f64::max)
+            / 1e3,
+        overruns: sum(|o| o.pipeline.overruns),
+        shed_cycles: sum(|o| o.pipeline.shed_cycles),
+        dropped_batches: outcomes.iter().map(|o| o.pipeline.dropped_batches).sum(),
+        simulated_s: outcomes
+            .iter()
+            .map(|o| o.path.last().map_or(0.0, |p| p.t_s))
+            .sum(),
+        events: outcomes.iter().map(|o| o.events).sum(),
     }
 }
 
 /// Nearest-rank percentile of sorted values; NaN for none.
-fn percentile(sorted: &[f64], q: f64) -> f64 {
+pub fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
     }

@@ -1,15 +1,25 @@
-//! Closed-loop flights: the real daemon (same tasks, same safety gate, same MAVLink
-//! bytes over a loopback socket) flying a simulated quadrotor at poles, against a
-//! simulated iNav, with a simulated event camera rendering the true path. Runs in
-//! real time. `faithd demo` flies one; `faithd sim` flies the paper's experiment.
+//! Closed-loop flights: the real daemon (`daemon::serve` with its link, pipeline,
+//! commander, safety gate and MSP stream, MAVLink and MSP bytes through the real
+//! codecs) flying a simulated quadrotor at poles, against a simulated iNav on
+//! simulated UARTs, with a simulated event camera rendering the true path.
+//!
+//! Everything runs in simulated time: one single-threaded tokio runtime whose clock
+//! is paused and advanced by the simulation, so a flight takes what its work costs
+//! on this machine, not its length, and the same flight is the same on every run and
+//! every machine. The pipeline's compute is charged in simulated time from a model
+//! of it ([`crate::cycle::compute`]), scaled to the board faithd is meant to fly on.
+//! `faithd demo` flies one; `faithd sim` flies the paper's experiment.
 
 pub mod autopilot;
+pub mod calibrate;
+pub mod camera;
 pub mod experiment;
 pub mod inav_mavlink;
 pub mod inav_msp;
 pub mod physics;
 pub mod plot;
 pub mod straight;
+pub mod uart;
 
 use std::sync::Arc;
 
@@ -19,9 +29,17 @@ use tokio::sync::mpsc;
 use crate::clock::DaemonClock;
 use crate::command::{MspSink, Sink};
 use crate::config::FaithdConfig;
-use crate::daemon::{self, Hooks, Observation};
+use crate::cycle::CycleReport;
+use crate::cycle::compute::ComputeCharge;
+use crate::daemon::{self, Ended, Execution, Hooks, Observation};
 use crate::link::endpoint::Address;
+pub use camera::CameraKind;
+pub use faithd_sim::world::SceneKind;
 use physics::{PathPoint, Shared, VEHICLE_RADIUS_M};
+
+/// Unix time a simulated flight calls its start: fixed, so that nothing in a
+/// flight depends on when it was flown.
+const SIMULATED_START_UNIX_US: i64 = 1_700_000_000_000_000;
 
 /// One flight to fly.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -44,6 +62,10 @@ pub struct FlightSpec {
     pub auto_at_s: f64,
     pub max_time_s: f64,
     pub seed: u64,
+    /// The room the poles stand in (the ray-traced camera; the line camera always
+    /// draws the arena).
+    pub scene: SceneKind,
+    pub camera: CameraKind,
 }
 
 impl Default for FlightSpec {
@@ -60,6 +82,8 @@ impl Default for FlightSpec {
             auto_at_s: 0.5,
             max_time_s: 8.0,
             seed: 1,
+            scene: SceneKind::Arena,
+            camera: CameraKind::Dvs,
         }
     }
 }
@@ -89,6 +113,36 @@ impl FlightSpec {
     }
 }
 
+/// What a simulated flight's pipeline cost, as charged in simulated time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct CycleFigures {
+    pub cycles: usize,
+    /// Cycles whose charged time exceeded `daemon.budget_us`.
+    pub overruns: usize,
+    /// Cycles run with load shed (fewer vectors and iterations).
+    pub shed_cycles: usize,
+    pub max_load_level: u32,
+    pub charged_us_p50: f64,
+    pub charged_us_p99: f64,
+    pub charged_us_max: f64,
+    /// Camera batches dropped because the pipeline's queue was full.
+    pub dropped_batches: u64,
+}
+
+/// How to fly: what a cycle's compute costs in simulated time.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct FlyOptions {
+    pub compute: ComputeCharge,
+}
+
+impl Default for FlyOptions {
+    fn default() -> Self {
+        Self {
+            compute: ComputeCharge::modelled(1.0),
+        }
+    }
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct FlightOutcome {
     pub spec: FlightSpec,
@@ -105,57 +159,74 @@ pub struct FlightOutcome {
     /// From the newest event of the deciding window to the first roll frame's arrival
     /// at the autopilot, milliseconds.
     pub latency_ms: Option<f64>,
+    /// The same from the newest event of the first window of the unbroken run of
+    /// roll calls that led to the roll: includes the time the safety gate held it
+    /// (the switch not yet in AUTO, the MSP stream not yet warm).
+    pub latency_from_first_call_ms: Option<f64>,
+    /// Simulated time the daemon's compute cost, and what it shed.
+    pub pipeline: CycleFigures,
+    /// Events the camera fired.
+    pub events: u64,
     /// The decision that started the roll, with its evidence.
     pub decision: Option<faithd_core::decide::Decision>,
     pub path: Vec<PathPoint>,
 }
 
-/// Flies one flight end to end; blocks for its duration (real time).
-pub fn fly(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
+/// Flies one flight end to end in simulated time. Fails when the daemon ended on a
+/// fault (a panic in one of its tasks): that is a defect, never an outcome.
+pub fn fly(spec: &FlightSpec, options: &FlyOptions) -> std::io::Result<FlightOutcome> {
+    // One thread and a paused clock that advances only when every task waits: the
+    // flight's order of events is fixed by its inputs, never by the machine.
+    let runtime = tokio::runtime::Builder::new_current_thread()
+        .enable_time()
+        .start_paused(true)
         .build()?;
-    runtime.block_on(fly_async(spec))
+    runtime.block_on(fly_simulated(spec, options))
 }
 
-async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
-    let clock = DaemonClock::start();
-    let socket = tokio::net::UdpSocket::bind("127.0.0.1:0").await?;
-    let port = socket.local_addr()?.port();
+async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Result<FlightOutcome> {
+    let clock = DaemonClock::simulated(SIMULATED_START_UNIX_US);
     let shared = Arc::new(Shared::new(physics::initial_quad(spec).state()));
-    tokio::spawn(autopilot::run(socket, shared.clone(), clock));
-    let msp = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-    let msp_port = msp.local_addr()?.port();
-    tokio::spawn(autopilot::run_msp(msp, shared.clone(), clock));
+    let inav = autopilot::start(shared.clone(), clock);
 
     let mut config = FaithdConfig::default();
-    config.mavlink.endpoint = Address::UdpOut(([127, 0, 0, 1], port).into());
+    config.mavlink.endpoint = Address::InProcess(inav.mavlink);
     config.command.sink = Sink::Msp(MspSink {
-        endpoint: Address::Tcp(format!("127.0.0.1:{msp_port}")),
+        endpoint: Address::InProcess(inav.msp),
         ..MspSink::default()
     });
     // Simulated flights are not recorded.
     config.record.enabled = false;
     let endpoint = config.mavlink.port();
+    let msp_endpoint = config.command.msp_port();
+    let budget_us = config.daemon.budget_us;
     let (obs_tx, mut obs_rx) = mpsc::unbounded_channel();
-    let source_spec = spec.clone();
-    let source_shared = shared.clone();
+    let (cycles_tx, mut cycles_rx) = mpsc::unbounded_channel();
+    let world_spec = spec.clone();
+    let world_shared = shared.clone();
     let hooks = Hooks {
         clock,
-        source: Box::new(move |clock, batches| {
-            physics::run(source_spec, source_shared, clock, batches)
-        }),
+        execution: Execution::SimulatedTime {
+            source: Box::new(move |clock, batches| {
+                Box::pin(physics::run(world_spec, world_shared, clock, batches))
+            }),
+            compute: options.compute,
+            cycles: Some(cycles_tx),
+        },
         observer: Some(obs_tx),
     };
     let start_us = clock.now_us();
     let done = shared.clone();
-    let msp_endpoint = config.command.msp_port();
-    daemon::serve(config, endpoint, msp_endpoint, hooks, async move {
+    let ended = daemon::serve(config, endpoint, msp_endpoint, hooks, async move {
         done.done.notified().await;
         "the flight ended"
     })
     .await;
+    if let Ended::Fault(why) | Ended::Refused { reason: why, .. } = ended {
+        return Err(std::io::Error::other(format!(
+            "the daemon stopped on a fault: {why}"
+        )));
+    }
 
     let log = shared
         .log
@@ -167,17 +238,18 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
     let started = obs_rx.try_recv().ok().map(|o| match o {
         Observation::ManoeuvreStarted {
             last_event_us,
+            first_call_event_us,
             started_us,
             decision: d,
         } => {
             decision = Some(d);
-            (last_event_us, started_us)
+            (last_event_us, first_call_event_us, started_us)
         }
     });
     let first_rx = shared
         .first_roll_rx_us
         .load(std::sync::atomic::Ordering::Relaxed);
-    let decision_s = started.map(|(_, s)| (s - start_us) as f64 * 1e-6);
+    let decision_s = started.map(|(_, _, s)| (s - start_us) as f64 * 1e-6);
     let ttc_at_decision_s = decision_s.and_then(|t| {
         let p = log
             .path
@@ -185,9 +257,16 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
             .min_by(|a, b| (a.t_s - t).abs().total_cmp(&(b.t_s - t).abs()))?;
         Some(spec.true_ttc_s(p.x_m))
     });
-    let latency_ms = started
-        .filter(|_| first_rx != i64::MIN)
-        .map(|(last_event_us, _)| (first_rx - last_event_us) as f64 / 1e3);
+    let rx_after = |event_us: i64| (first_rx - event_us) as f64 / 1e3;
+    let received = started.filter(|_| first_rx != i64::MIN);
+    let mut reports = Vec::new();
+    while let Ok(r) = cycles_rx.try_recv() {
+        reports.push(r);
+    }
+    let mut pipeline = cycle_figures(&reports, budget_us);
+    pipeline.dropped_batches = shared
+        .dropped_batches
+        .load(std::sync::atomic::Ordering::Relaxed);
     Ok(FlightOutcome {
         spec: spec.clone(),
         collision_course: spec.is_collision_course(),
@@ -196,8 +275,28 @@ async fn fly_async(spec: &FlightSpec) -> std::io::Result<FlightOutcome> {
         min_clearance_m: log.min_clearance_m,
         decision_s,
         ttc_at_decision_s,
-        latency_ms,
+        latency_ms: received.map(|(last, _, _)| rx_after(last)),
+        latency_from_first_call_ms: received.map(|(_, first, _)| rx_after(first)),
+        pipeline,
+        events: log.events,
         decision,
         path: log.path,
     })
+}
+
+/// The charged cycle times of a flight, summed up.
+fn cycle_figures(reports: &[CycleReport], budget_us: i64) -> CycleFigures {
+    let mut charged: Vec<f64> = reports.iter().map(|r| r.charged_us as f64).collect();
+    charged.sort_by(f64::total_cmp);
+    let pick = |q: f64| experiment::percentile(&charged, q);
+    CycleFigures {
+        cycles: reports.len(),
+        overruns: reports.iter().filter(|r| r.charged_us > budget_us).count(),
+        shed_cycles: reports.iter().filter(|r| r.load_level > 0).count(),
+        max_load_level: reports.iter().map(|r| r.load_level).max().unwrap_or(0),
+        charged_us_p50: pick(0.5),
+        charged_us_p99: pick(0.99),
+        charged_us_max: charged.last().copied().unwrap_or(f64::NAN),
+        dropped_batches: 0,
+    }
 }

@@ -1,9 +1,10 @@
-//! The simulated world, stepped in real time on the daemon's clock: the vehicle
-//! answers the roll stick the simulated iNav holds, the camera renders events along
-//! the true path, and the flight ends past the last pole or on contact.
+//! The simulated world, stepped every millisecond of simulated time: the vehicle
+//! answers the roll stick the simulated iNav uses, the camera renders events along
+//! the true path, the pilot's switch goes to AUTO on time, and the flight ends past
+//! the first pole or on contact.
 
-use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU16, Ordering};
-use std::sync::mpsc::SyncSender;
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU16, AtomicU64, Ordering};
+use std::sync::mpsc::{SyncSender, TrySendError};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -11,23 +12,29 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::FlightSpec;
+use super::camera::{FlightCamera, arena};
 use crate::clock::DaemonClock;
-use faithd_core::camera::{CameraIntrinsics, Mounting};
 use faithd_core::event::Event;
-use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};
+use faithd_sim::world::line_camera::ArenaSpec;
 use faithd_sim::world::quad::{Quad, QuadConfig};
 use faithd_sim::world::trajectory::VehicleState;
 
 /// Half the span of the vehicle: contact when its centre comes this close to a pole's surface.
 pub const VEHICLE_RADIUS_M: f64 = 0.15;
 
-/// State shared by the physics thread and the simulated autopilot.
+/// Physics and camera step.
+pub const STEP_US: i64 = 1000;
+
+/// State shared by the world and the simulated autopilot.
 pub struct Shared {
     pub roll_us: AtomicU16,
     pub switch_auto: AtomicBool,
     pub state: Mutex<VehicleState>,
-    /// Daemon time the first deflected roll frame arrived; `i64::MIN` until then.
+    /// Daemon time the first deflected roll was in use at the autopilot; `i64::MIN`
+    /// until then.
     pub first_roll_rx_us: AtomicI64,
+    /// Camera batches the pipeline's queue had no room for.
+    pub dropped_batches: AtomicU64,
     pub done: tokio::sync::Notify,
     pub log: Mutex<Option<FlightLog>>,
 }
@@ -47,6 +54,8 @@ pub struct FlightLog {
     pub collided: bool,
     /// Smallest distance between the vehicle's edge and a pole's surface.
     pub min_clearance_m: f64,
+    /// Events the camera fired.
+    pub events: u64,
 }
 
 impl Shared {
@@ -56,6 +65,7 @@ impl Shared {
             switch_auto: AtomicBool::new(false),
             state: Mutex::new(initial),
             first_roll_rx_us: AtomicI64::new(i64::MIN),
+            dropped_batches: AtomicU64::new(0),
             done: tokio::sync::Notify::new(),
             log: Mutex::new(None),
         }
@@ -82,20 +92,6 @@ pub fn initial_quad(spec: &FlightSpec) -> Quad {
     )
 }
 
-/// The flight's arena and the camera that renders it, as `spec` describes them.
-pub fn arena_and_camera(spec: &FlightSpec) -> (ArenaSpec, LineCamera) {
-    let mut arena = ArenaSpec::with_poles(&spec.poles);
-    arena.contrast = spec.contrast;
-    let mut camera = LineCamera::new(
-        CameraIntrinsics::dvs240(),
-        Mounting::forward(),
-        arena.clone(),
-        spec.seed,
-    );
-    camera.noise_rate_hz = spec.noise_rate_hz;
-    (arena, camera)
-}
-
 /// Smallest gap between the vehicle's edge at `position_m` and a pole's surface;
 /// negative on contact.
 pub fn clearance_m(arena: &ArenaSpec, position_m: &Vector3<f64>) -> f64 {
@@ -106,63 +102,71 @@ pub fn clearance_m(arena: &ArenaSpec, position_m: &Vector3<f64>) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The physics and camera loop; runs until the flight ends, then signals `done`.
-pub fn run(
+/// The world as a task in simulated time; runs until the flight ends, then
+/// signals `done`.
+pub async fn run(
     spec: FlightSpec,
     shared: Arc<Shared>,
     clock: DaemonClock,
     batches: SyncSender<Vec<Event>>,
 ) {
-    const STEP_US: i64 = 1000;
     let mut quad = initial_quad(&spec);
-    let (arena, mut camera) = arena_and_camera(&spec);
+    let arena = arena(&spec);
+    let mut camera = FlightCamera::new(&spec);
     let mut log = FlightLog {
         min_clearance_m: f64::INFINITY,
         ..Default::default()
     };
     let start_us = clock.now_us();
     let mut t_us = start_us;
-    let mut scratch = Vec::new();
-    camera.advance(&quad.state(), t_us, &mut scratch);
+    let mut first = Vec::new();
+    camera.step(&quad.state(), t_us, &mut first);
     let end_x_m = spec.end_x_m();
+    let mut tick = tokio::time::interval_at(
+        tokio::time::Instant::now() + Duration::from_micros(STEP_US as u64),
+        Duration::from_micros(STEP_US as u64),
+    );
     loop {
-        std::thread::sleep(Duration::from_micros(STEP_US as u64));
-        let now_us = clock.now_us();
+        tick.tick().await;
+        t_us += STEP_US;
+        let roll_us = shared.roll_us.load(Ordering::Relaxed);
+        quad.step(roll_us, STEP_US as f64 * 1e-6);
+        let state = quad.state();
         let mut batch = Vec::new();
-        while t_us + STEP_US <= now_us {
-            t_us += STEP_US;
-            let roll_us = shared.roll_us.load(Ordering::Relaxed);
-            quad.step(roll_us, STEP_US as f64 * 1e-6);
-            let state = quad.state();
-            camera.advance(&state, t_us, &mut batch);
-            *shared.state.lock().expect("state lock") = state;
-            let elapsed_s = (t_us - start_us) as f64 * 1e-6;
-            if elapsed_s >= spec.auto_at_s && spec.pilot_auto {
-                shared.switch_auto.store(true, Ordering::Relaxed);
-            }
-            let clearance = clearance_m(&arena, &quad.position_m);
-            log.min_clearance_m = log.min_clearance_m.min(clearance);
-            if (t_us - start_us) % 10_000 == 0 {
-                log.path.push(PathPoint {
-                    t_s: elapsed_s,
-                    x_m: quad.position_m.x,
-                    y_m: quad.position_m.y,
-                    bank_deg: quad.bank_rad.to_degrees(),
-                    roll_us,
-                });
-            }
-            let ended =
-                clearance < 0.0 || quad.position_m.x > end_x_m || elapsed_s > spec.max_time_s;
-            if ended {
-                log.collided = clearance < 0.0;
-                let _ = batches.try_send(batch);
-                *shared.log.lock().expect("log lock") = Some(log);
-                shared.done.notify_one();
-                return;
+        camera.step(&state, t_us, &mut batch);
+        log.events += batch.len() as u64;
+        *shared.state.lock().expect("state lock") = state;
+        let elapsed_s = (t_us - start_us) as f64 * 1e-6;
+        if elapsed_s >= spec.auto_at_s && spec.pilot_auto {
+            shared.switch_auto.store(true, Ordering::Relaxed);
+        }
+        let clearance = clearance_m(&arena, &quad.position_m);
+        log.min_clearance_m = log.min_clearance_m.min(clearance);
+        if (t_us - start_us) % 10_000 == 0 {
+            log.path.push(PathPoint {
+                t_s: elapsed_s,
+                x_m: quad.position_m.x,
+                y_m: quad.position_m.y,
+                bank_deg: quad.bank_rad.to_degrees(),
+                roll_us,
+            });
+        }
+        if !batch.is_empty() {
+            match batches.try_send(batch) {
+                Ok(()) => {}
+                Err(TrySendError::Full(_)) => {
+                    shared.dropped_batches.fetch_add(1, Ordering::Relaxed);
+                }
+                // The pipeline has stopped: the daemon is ending.
+                Err(TrySendError::Disconnected(_)) => return,
             }
         }
-        if batches.try_send(batch).is_err() {
-            tracing::warn!("pipeline not keeping up with the simulated camera");
+        let ended = clearance < 0.0 || quad.position_m.x > end_x_m || elapsed_s > spec.max_time_s;
+        if ended {
+            log.collided = clearance < 0.0;
+            *shared.log.lock().expect("log lock") = Some(log);
+            shared.done.notify_one();
+            return;
         }
     }
 }

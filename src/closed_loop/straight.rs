@@ -12,7 +12,8 @@
 use serde::Serialize;
 
 use super::FlightSpec;
-use super::physics::{arena_and_camera, clearance_m, initial_quad};
+use super::camera::{FlightCamera, arena};
+use super::physics::{clearance_m, initial_quad};
 use faithd_core::decide::{Action, Decision};
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
 
@@ -24,7 +25,7 @@ const WINDOW_US: i64 = 10_000;
 /// Autopilot ATTITUDE period.
 const ATTITUDE_US: i64 = 20_000;
 /// Physics and camera step.
-const STEP_US: i64 = 1_000;
+const STEP_US: i64 = super::physics::STEP_US;
 
 /// The first roll of a straight flight.
 #[derive(Clone, Debug, Serialize)]
@@ -58,14 +59,15 @@ impl StraightOutcome {
 /// window, after the pilot's switch goes to AUTO, that decided to roll.
 pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutcome {
     let mut quad = initial_quad(spec);
-    let (arena, mut camera) = arena_and_camera(spec);
+    let arena = arena(spec);
+    let mut camera = FlightCamera::new(spec);
     let mut pipeline = Pipeline::new(*config);
     let (mut pending, mut attitude) = (Vec::new(), Vec::new());
     // Start the clock at 1 s so no timestamp is negative or zero.
     let start_us: i64 = 1_000_000;
     let auto_us = start_us + (spec.auto_at_s * 1e6) as i64;
     let mut t_us = start_us;
-    camera.advance(&quad.state(), t_us, &mut pending);
+    camera.step(&quad.state(), t_us, &mut pending);
     pending.clear();
     let end_x_m = spec.end_x_m();
     let mut roll = None;
@@ -73,7 +75,7 @@ pub fn fly_straight(spec: &FlightSpec, config: &PipelineConfig) -> StraightOutco
         t_us += STEP_US;
         quad.step(1500, STEP_US as f64 * 1e-6);
         let state = quad.state();
-        camera.advance(&state, t_us, &mut pending);
+        camera.step(&state, t_us, &mut pending);
         if t_us % ATTITUDE_US == 0 {
             attitude.push(state.attitude_sample(t_us));
         }

@@ -135,6 +135,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
     loop {
         channels.heartbeat.beat();
         let opened = tokio::select! {
+            biased;
             o = endpoint.open() => o,
             Some(req) = channels.stop.recv() => {
                 let _ = req.done.send(Err("the MSP port is not open".into()));
@@ -178,6 +179,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             }
         };
         tokio::select! {
+            biased;
             _ = channels.heartbeat.sleep(wait) => {}
             Some(req) = channels.stop.recv() => {
                 let _ = req.done.send(Err("the MSP port is not open".into()));
@@ -256,7 +258,15 @@ async fn serve(
     let mut refusals = 0u64;
     loop {
         heartbeat.beat();
+        // Biased (polled in this order, as everywhere in the daemon): the stop and the
+        // send period come before the replies, which cannot starve them.
         tokio::select! {
+            biased;
+            Some(req) = stop.recv() => {
+                let sent = release(port, &frame(neutral), req.repeats, settings.period).await;
+                let _ = req.done.send(sent);
+                return Ended::Stopped;
+            }
             _ = tick.tick() => {
                 if last_reply.elapsed() > settings.reply_timeout {
                     return Ended::Failed(format!(
@@ -309,11 +319,6 @@ async fn serve(
                         }
                     }
                 }
-            }
-            Some(req) = stop.recv() => {
-                let sent = release(port, &frame(neutral), req.repeats, settings.period).await;
-                let _ = req.done.send(sent);
-                return Ended::Stopped;
             }
         }
     }

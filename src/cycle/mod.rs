@@ -6,7 +6,14 @@
 //! skips the missed periods instead of running back to back. The MAVLink side never
 //! waits for this thread: everything leaves it through non-blocking sends.
 
+#[cfg(feature = "sim")]
+pub mod compute;
 pub mod shed;
+#[cfg(feature = "sim")]
+mod simulated;
+
+#[cfg(feature = "sim")]
+pub use simulated::{CycleReport, run_simulated};
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
@@ -15,13 +22,13 @@ use std::time::Duration;
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
-use crate::clock::DaemonClock;
+use crate::clock::{DaemonClock, WallStageClock};
 use crate::logging::Throttle;
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::{Action, Decision};
 use faithd_core::event::Event;
 use faithd_core::invalid::{Invalid, check};
-use faithd_core::pipeline::{Pipeline, PipelineConfig};
+use faithd_core::pipeline::{Pipeline, PipelineConfig, StageClock, WindowReport};
 use faithd_core::safety::gate::{PipelineProblem, PipelineStatus};
 use faithd_formats::window_log::WindowLine;
 use faithd_formats::window_log::WindowLogLine;
@@ -101,37 +108,283 @@ pub struct RollDecision {
 pub struct CycleIo {
     pub events: Receiver<Vec<Event>>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
+    pub outputs: CycleOutputs,
+    /// Set when the daemon stops: the thread ends at its next period.
+    pub stop: Arc<std::sync::atomic::AtomicBool>,
+}
+
+/// Where a cycle's results go.
+pub struct CycleOutputs {
     pub status: watch::Sender<PipelineStatus>,
     /// The newest roll decision: a newer one replaces one the commander has not
     /// read yet (it only acts on fresh decisions), so none is ever refused.
     pub decisions: watch::Sender<Option<RollDecision>>,
     pub recorder: Option<crate::record::Recorder>,
-    /// Set when the daemon stops: the thread ends at its next period.
-    pub stop: Arc<std::sync::atomic::AtomicBool>,
 }
 
-/// Runs until the event source hangs up or `io.stop` is set.
-pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonClock, io: CycleIo) {
-    let mut pipeline = Pipeline::new(pipeline_config);
-    let mut shedder = Shedder::new(
-        pipeline_config.max_vectors,
-        pipeline_config.faith.iterations,
-        config.shed_min_vectors,
-        config.shed_min_iterations,
-    );
-    let mut pending: Vec<Event> = Vec::new();
-    let mut attitude = Vec::new();
-    let mut last_batch_us = clock.now_us();
-    let mut last_logged: Option<(
+/// What one window asked of the processor: the counts its compute time follows.
+/// A simulated flight charges the time from these (`compute`), so that the same
+/// flight costs the same on any machine and under any load.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Work {
+    /// Events in the window.
+    pub events: usize,
+    /// Events that reached a plane fit (in view, not refractory).
+    pub fits: usize,
+    /// Flow vectors the window produced (derotated).
+    pub new_vectors: usize,
+    /// Vectors of the history (TTC, box checks).
+    pub history_vectors: usize,
+    /// Vectors FAITH took, and its iterations.
+    pub foe_vectors: usize,
+    pub foe_iterations: u32,
+    /// Vectors with a TTC: DBSCAN's points.
+    pub clustered: usize,
+}
+
+impl Work {
+    /// The counts of a window of `events` events that FAITH ran with `foe_iterations`.
+    pub fn of(report: &WindowReport<'_>, events: usize, foe_iterations: u32) -> Self {
+        let stats = report.flow_stats;
+        Work {
+            events,
+            fits: stats
+                .events
+                .saturating_sub(stats.out_of_view + stats.refractory) as usize,
+            new_vectors: stats.vectors as usize,
+            history_vectors: report.vectors.len(),
+            foe_vectors: report.decision.vectors,
+            foe_iterations,
+            clustered: report.ttc_s.iter().filter(|t| t.is_finite()).count(),
+        }
+    }
+}
+
+/// One window's results, held until its compute is over: only then do they leave
+/// the pipeline (in flight, that is when the thread gets there; in a simulated
+/// flight, when the simulated board would have finished).
+pub struct WindowOutcome {
+    pub started_us: i64,
+    status: PipelineStatus,
+    decision: Decision,
+    last_event_us: i64,
+    window_log: Option<String>,
+    pub work: Work,
+    /// The stages' compute time on this machine's wall clock.
+    pub measured_ns: u64,
+    pub timings: faithd_core::pipeline::StageTimings,
+}
+
+/// The pipeline thread's state between windows: the pipeline, the events not yet
+/// taken, load shedding and what was logged last. The drivers ([`run`] on a thread,
+/// `run_simulated` as a task in simulated time) wait for each period's end and hand
+/// it the batches that arrived.
+pub struct Cycle {
+    pipeline_config: PipelineConfig,
+    config: DaemonConfig,
+    pipeline: Pipeline,
+    shedder: Shedder,
+    pending: Vec<Event>,
+    attitude: Vec<faithd_core::attitude::AttitudeSample>,
+    last_batch_us: i64,
+    last_logged: Option<(
         std::mem::Discriminant<Action>,
         std::mem::Discriminant<faithd_core::decide::Reason>,
-    )> = None;
+    )>,
+    /// The load-shedding settings in force, for the window log.
+    max_vectors: usize,
+    foe_iterations: u32,
+    overrun_log: Throttle,
+}
+
+impl Cycle {
+    pub fn new(pipeline_config: PipelineConfig, config: DaemonConfig, now_us: i64) -> Self {
+        Self {
+            pipeline: Pipeline::new(pipeline_config),
+            shedder: Shedder::new(
+                pipeline_config.max_vectors,
+                pipeline_config.faith.iterations,
+                config.shed_min_vectors,
+                config.shed_min_iterations,
+            ),
+            pending: Vec::new(),
+            attitude: Vec::new(),
+            last_batch_us: now_us,
+            last_logged: None,
+            max_vectors: pipeline_config.max_vectors,
+            foe_iterations: pipeline_config.faith.iterations,
+            overrun_log: Throttle::new(LOG_EVERY_US),
+            pipeline_config,
+            config,
+        }
+    }
+
+    /// Takes a batch of events that arrived at `now_us` (recording it).
+    pub fn take(
+        &mut self,
+        batch: Vec<Event>,
+        now_us: i64,
+        recorder: Option<&crate::record::Recorder>,
+    ) {
+        self.last_batch_us = now_us;
+        if let (Some(r), false) = (recorder, batch.is_empty()) {
+            r.send(crate::record::Item::Events(batch.clone()));
+        }
+        self.pending.extend(batch);
+    }
+
+    /// Runs the window that ends at `window_end_us` on the events taken so far and
+    /// the attitude that covers them. `recording` asks for the window log line.
+    pub fn run_window(
+        &mut self,
+        window_end_us: i64,
+        attitude: &Mutex<AttitudeLog>,
+        stage_clock: &mut dyn StageClock,
+        recording: bool,
+    ) -> WindowOutcome {
+        let take = faithd_core::window::events_until(&self.pending, window_end_us);
+        attitude.lock().expect("attitude log lock").copy_for_window(
+            window_end_us,
+            self.pipeline_config.history_us,
+            &mut self.attitude,
+        );
+        let last_event_us = self.pending[..take]
+            .last()
+            .map_or(window_end_us, |e| e.t_us);
+        let report = self.pipeline.process_window(
+            &self.pending[..take],
+            &self.attitude,
+            window_end_us,
+            stage_clock,
+        );
+        let decision = report.decision;
+        let work = Work::of(&report, take, self.foe_iterations);
+        let timings = report.timings;
+        let measured_ns = timings.total_ns();
+        let window_log = recording.then(|| {
+            let line = WindowLine::from_report(window_end_us, take, &report);
+            let logged = WindowLogLine {
+                line: &line,
+                max_vectors: self.max_vectors,
+                foe_iterations: self.foe_iterations,
+            };
+            serde_json::to_string(&logged).expect("window line serialises")
+        });
+        let derotated = report.derotation.applied;
+        self.pending.drain(..take);
+        let problem = if window_end_us - self.last_batch_us > self.config.event_stale_us {
+            Some(PipelineProblem::NoEvents)
+        } else if !derotated {
+            Some(PipelineProblem::NoAttitude)
+        } else {
+            None
+        };
+        WindowOutcome {
+            started_us: window_end_us,
+            status: PipelineStatus {
+                last_cycle_us: Some(window_end_us),
+                problem,
+            },
+            decision,
+            last_event_us,
+            window_log,
+            work,
+            measured_ns,
+            timings,
+        }
+    }
+
+    /// Hands a window's results on: the pipeline's health, a roll decision, the
+    /// window log line; logs a decision that differs in kind from the last one.
+    pub fn publish(&mut self, outcome: WindowOutcome, outputs: &CycleOutputs) {
+        let WindowOutcome {
+            status,
+            decision,
+            last_event_us,
+            window_log,
+            ..
+        } = outcome;
+        outputs.status.send_replace(status);
+        let key = (
+            std::mem::discriminant(&decision.action),
+            std::mem::discriminant(&decision.reason),
+        );
+        if self.last_logged != Some(key) {
+            tracing::info!(t_us = decision.t_us, "decision: {decision}");
+            self.last_logged = Some(key);
+        } else {
+            tracing::debug!(t_us = decision.t_us, "decision: {decision}");
+        }
+        if matches!(decision.action, Action::Roll { .. }) {
+            outputs.decisions.send_replace(Some(RollDecision {
+                decision,
+                last_event_us,
+            }));
+        }
+        if let (Some(recorder), Some(line)) = (&outputs.recorder, window_log) {
+            recorder.send(crate::record::Item::Window(line));
+        }
+    }
+
+    /// Accounts a cycle that took `cycle_us`: over budget, the next ones shed load;
+    /// a calm stretch restores it.
+    pub fn account(&mut self, cycle_us: i64, now_us: i64) {
+        let budget_us = self.config.budget_us;
+        if let Some(load) = self.shedder.observe(cycle_us, budget_us) {
+            self.pipeline.set_max_vectors(load.max_vectors);
+            self.pipeline.set_foe_iterations(load.iterations);
+            (self.max_vectors, self.foe_iterations) = (load.max_vectors, load.iterations);
+            tracing::warn!(
+                level = load.level,
+                max_vectors = load.max_vectors,
+                iterations = load.iterations,
+                "load level changed"
+            );
+        }
+        if cycle_us > budget_us {
+            let overruns = self.shedder.overruns;
+            self.overrun_log.event(now_us, |since| {
+                tracing::warn!(
+                    cycle_us,
+                    budget_us,
+                    overruns,
+                    since_last_line = since,
+                    "cycle overran its budget"
+                )
+            });
+        }
+    }
+
+    /// Cycles over budget since start.
+    pub fn overruns(&self) -> u64 {
+        self.shedder.overruns
+    }
+
+    /// The load level in force (0 = full load).
+    pub fn load_level(&self) -> u32 {
+        self.shedder.load().level
+    }
+
+    /// The next period's end after one that ended at `next_us`, skipping periods
+    /// already missed rather than running back to back.
+    pub fn next_period(&self, next_us: i64, now_us: i64) -> i64 {
+        let period_us = self.config.period_us;
+        let next_us = next_us + period_us;
+        if now_us >= next_us {
+            let missed = (now_us - next_us) / period_us + 1;
+            return next_us + missed * period_us;
+        }
+        next_us
+    }
+}
+
+/// Runs the pipeline on its own thread (flight) until the event source hangs up or
+/// `io.stop` is set.
+pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonClock, io: CycleIo) {
+    let mut cycle = Cycle::new(pipeline_config, config, clock.now_us());
+    let mut stage_clock = WallStageClock::new();
+    let recording = io.outputs.recorder.is_some();
     let mut next_us = clock.now_us() + config.period_us;
-    let mut stage_clock = clock;
-    // The load-shedding settings in force, for the window log.
-    let mut max_vectors = pipeline_config.max_vectors;
-    let mut foe_iterations = pipeline_config.faith.iterations;
-    let mut overrun_log = Throttle::new(LOG_EVERY_US);
     loop {
         if io.stop.load(std::sync::atomic::Ordering::Acquire) {
             return;
@@ -146,13 +399,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
                 .events
                 .recv_timeout(Duration::from_micros((next_us - now) as u64))
             {
-                Ok(batch) => {
-                    last_batch_us = clock.now_us();
-                    if let (Some(r), false) = (&io.recorder, batch.is_empty()) {
-                        r.send(crate::record::Item::Events(batch.clone()));
-                    }
-                    pending.extend(batch);
-                }
+                Ok(batch) => cycle.take(batch, clock.now_us(), io.outputs.recorder.as_ref()),
                 Err(RecvTimeoutError::Timeout) => break,
                 Err(RecvTimeoutError::Disconnected) => {
                     tracing::warn!("event source ended; pipeline thread stops");
@@ -161,90 +408,10 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
             }
         }
         let started_us = clock.now_us();
-        let window_end_us = started_us;
-        let take = faithd_core::window::events_until(&pending, window_end_us);
-        io.attitude
-            .lock()
-            .expect("attitude log lock")
-            .copy_for_window(window_end_us, pipeline_config.history_us, &mut attitude);
-        let last_event_us = pending[..take].last().map_or(window_end_us, |e| e.t_us);
-        let report =
-            pipeline.process_window(&pending[..take], &attitude, window_end_us, &mut stage_clock);
-        let decision = report.decision;
-        let derotated = report.derotation.applied;
-        let window_line = io
-            .recorder
-            .as_ref()
-            .map(|_| WindowLine::from_report(window_end_us, take, &report));
-        pending.drain(..take);
-
-        let problem = if started_us - last_batch_us > config.event_stale_us {
-            Some(PipelineProblem::NoEvents)
-        } else if !derotated {
-            Some(PipelineProblem::NoAttitude)
-        } else {
-            None
-        };
-        io.status.send_replace(PipelineStatus {
-            last_cycle_us: Some(started_us),
-            problem,
-        });
-        let key = (
-            std::mem::discriminant(&decision.action),
-            std::mem::discriminant(&decision.reason),
-        );
-        if last_logged != Some(key) {
-            tracing::info!(t_us = decision.t_us, "decision: {decision}");
-            last_logged = Some(key);
-        } else {
-            tracing::debug!(t_us = decision.t_us, "decision: {decision}");
-        }
-        if matches!(decision.action, Action::Roll { .. }) {
-            io.decisions.send_replace(Some(RollDecision {
-                decision,
-                last_event_us,
-            }));
-        }
-        if let (Some(recorder), Some(line)) = (&io.recorder, window_line) {
-            let logged = WindowLogLine {
-                line: &line,
-                max_vectors,
-                foe_iterations,
-            };
-            recorder.send(crate::record::Item::Window(
-                serde_json::to_string(&logged).expect("window line serialises"),
-            ));
-        }
-
-        let cycle_us = clock.now_us() - started_us;
-        if let Some(load) = shedder.observe(cycle_us, config.budget_us) {
-            pipeline.set_max_vectors(load.max_vectors);
-            pipeline.set_foe_iterations(load.iterations);
-            (max_vectors, foe_iterations) = (load.max_vectors, load.iterations);
-            tracing::warn!(
-                level = load.level,
-                max_vectors = load.max_vectors,
-                iterations = load.iterations,
-                "load level changed"
-            );
-        }
-        if cycle_us > config.budget_us {
-            overrun_log.event(clock.now_us(), |since| {
-                tracing::warn!(
-                    cycle_us,
-                    budget_us = config.budget_us,
-                    overruns = shedder.overruns,
-                    since_last_line = since,
-                    "cycle overran its budget"
-                )
-            });
-        }
-        next_us += config.period_us;
-        let now = clock.now_us();
-        if now >= next_us {
-            // Late: skip the missed periods rather than run back to back.
-            let missed = (now - next_us) / config.period_us + 1;
-            next_us += missed * config.period_us;
-        }
+        let outcome = cycle.run_window(started_us, &io.attitude, &mut stage_clock, recording);
+        cycle.publish(outcome, &io.outputs);
+        let now_us = clock.now_us();
+        cycle.account(now_us - started_us, now_us);
+        next_us = cycle.next_period(next_us, clock.now_us());
     }
 }

@@ -130,7 +130,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     };
     let hooks = Hooks {
         clock,
-        source,
+        execution: Execution::Threads { source },
         observer: None,
     };
     let ended = runtime.block_on(serve(
@@ -152,20 +152,52 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
 /// Runs an event source on its own thread until the pipeline hangs up.
 pub type SourceFn = Box<dyn FnOnce(DaemonClock, SyncSender<Vec<Event>>) + Send>;
 
+/// A simulated world as a task: it steps in simulated time and sends the camera's
+/// batches until the pipeline hangs up or the flight ends.
+#[cfg(feature = "sim")]
+pub type SimulatedSourceFn = Box<
+    dyn FnOnce(
+            DaemonClock,
+            SyncSender<Vec<Event>>,
+        ) -> std::pin::Pin<Box<dyn std::future::Future<Output = ()> + Send>>
+        + Send,
+>;
+
+/// How the camera and the pipeline run beside the tokio tasks.
+pub enum Execution {
+    /// Flight (and real-time harnesses): the camera and the pipeline on threads of
+    /// their own, on the wall clock.
+    Threads { source: SourceFn },
+    /// A simulated flight: the world and the pipeline are tasks on the same
+    /// single-threaded runtime as the link, the commander and the MSP stream, whose
+    /// clock is paused and advanced by the simulation; each window's compute is
+    /// charged in simulated time as `compute` says. Same input, same flight.
+    #[cfg(feature = "sim")]
+    SimulatedTime {
+        source: SimulatedSourceFn,
+        compute: crate::cycle::compute::ComputeCharge,
+        cycles: Option<mpsc::UnboundedSender<crate::cycle::CycleReport>>,
+    },
+}
+
 /// What differs between the service and an in-process harness (`faithd demo`,
-/// `faithd sim`): the clock, the camera, and who watches the manoeuvres.
+/// `faithd sim`): the clock, the camera and the pipeline's execution, and who
+/// watches the manoeuvres.
 pub struct Hooks {
     pub clock: DaemonClock,
-    pub source: SourceFn,
+    pub execution: Execution,
     pub observer: Option<mpsc::UnboundedSender<Observation>>,
 }
 
 /// Something a harness may want to measure.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Observation {
-    /// A roll began; `last_event_us` is the newest event of the deciding window.
+    /// A roll began; `last_event_us` is the newest event of the deciding window,
+    /// `first_call_event_us` that of the first window of the unbroken run of roll
+    /// calls that led to it (earlier when the gate held the roll).
     ManoeuvreStarted {
         last_event_us: i64,
+        first_call_event_us: i64,
         started_us: i64,
         decision: faithd_core::decide::Decision,
     },
@@ -182,7 +214,7 @@ pub async fn serve(
 ) -> Ended {
     let Hooks {
         clock,
-        source,
+        execution,
         observer,
     } = hooks;
     tracing::info!(
@@ -226,32 +258,48 @@ pub async fn serve(
     let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
     let (decision_tx, decision_rx) = watch::channel(None);
     let (batch_tx, batch_rx) = std::sync::mpsc::sync_channel(256);
-    let source_thread = std::thread::Builder::new()
-        .name("faithd-source".into())
-        .spawn(move || source(clock, batch_tx))
-        .expect("spawn source thread");
     let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
-    let cycle_recorder = recorder.clone();
     let stop_pipeline = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let stop = stop_pipeline.clone();
-    let pipeline_thread = std::thread::Builder::new()
-        .name("faithd-pipeline".into())
-        .spawn(move || {
-            cycle::run(
+    let cycle_io = cycle::CycleIo {
+        events: batch_rx,
+        attitude,
+        outputs: cycle::CycleOutputs {
+            status: status_tx,
+            decisions: decision_tx,
+            recorder: recorder.clone(),
+        },
+        stop: stop_pipeline.clone(),
+    };
+    let workers = match execution {
+        Execution::Threads { source } => {
+            let source_thread = std::thread::Builder::new()
+                .name("faithd-source".into())
+                .spawn(move || source(clock, batch_tx))
+                .expect("spawn source thread");
+            let pipeline_thread = std::thread::Builder::new()
+                .name("faithd-pipeline".into())
+                .spawn(move || cycle::run(pipeline_config, daemon_config, clock, cycle_io))
+                .expect("spawn pipeline thread");
+            Workers::Threads([("pipeline", pipeline_thread), ("camera", source_thread)])
+        }
+        #[cfg(feature = "sim")]
+        Execution::SimulatedTime {
+            source,
+            compute,
+            cycles,
+        } => {
+            let world = tokio::spawn(source(clock, batch_tx));
+            let pipeline = tokio::spawn(cycle::run_simulated(
                 pipeline_config,
                 daemon_config,
                 clock,
-                cycle::CycleIo {
-                    events: batch_rx,
-                    attitude,
-                    status: status_tx,
-                    decisions: decision_tx,
-                    recorder: cycle_recorder,
-                    stop,
-                },
-            )
-        })
-        .expect("spawn pipeline thread");
+                cycle_io,
+                compute,
+                cycles,
+            ));
+            Workers::Tasks([pipeline, world])
+        }
+    };
 
     let stream = stream::spawn(
         msp_endpoint.clone(),
@@ -281,7 +329,11 @@ pub async fn serve(
         },
         &stream,
     );
+    // Every select in the daemon is biased: branches are polled in the order
+    // written, so a simulated flight (one thread, simulated time) takes the same
+    // path on every run. Rare events come first, so a busy stream cannot starve them.
     let ended = tokio::select! {
+        biased;
         _ = commander => Ended::Fault("the commander ended".into()),
         why = shutdown => {
             tracing::info!("shutdown requested ({why})");
@@ -312,22 +364,50 @@ pub async fn serve(
         let _ = task.await;
     }
     stop_pipeline.store(true, std::sync::atomic::Ordering::Release);
-    let threads = [("pipeline", pipeline_thread), ("camera", source_thread)];
-    let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
-    while threads.iter().any(|(_, t)| !t.is_finished()) && tokio::time::Instant::now() < deadline {
-        tokio::time::sleep(Duration::from_millis(5)).await;
-    }
-    for (name, thread) in threads {
-        if thread.is_finished() {
-            let _ = thread.join();
-        } else {
-            tracing::warn!(
-                "the {name} thread did not end within 1 s (blocked in a device?); not waited for"
-            );
-        }
-    }
+    workers.join().await;
     tracing::info!("faithd stopped");
     ended
+}
+
+/// The camera and the pipeline: threads in flight, tasks in a simulated flight.
+enum Workers {
+    Threads([(&'static str, std::thread::JoinHandle<()>); 2]),
+    #[cfg(feature = "sim")]
+    Tasks([tokio::task::JoinHandle<()>; 2]),
+}
+
+impl Workers {
+    /// Waits for the camera and the pipeline to end (the pipeline was told to stop;
+    /// the camera ends when the pipeline's end of its channel is gone). A thread
+    /// still blocked in a device after 1 s is named and not waited for.
+    async fn join(self) {
+        match self {
+            Workers::Threads(threads) => {
+                let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
+                while threads.iter().any(|(_, t)| !t.is_finished())
+                    && tokio::time::Instant::now() < deadline
+                {
+                    tokio::time::sleep(Duration::from_millis(5)).await;
+                }
+                for (name, thread) in threads {
+                    if thread.is_finished() {
+                        let _ = thread.join();
+                    } else {
+                        tracing::warn!(
+                            "the {name} thread did not end within 1 s (blocked in a device?); not waited for"
+                        );
+                    }
+                }
+            }
+            #[cfg(feature = "sim")]
+            Workers::Tasks(tasks) => {
+                for task in tasks {
+                    task.abort();
+                    let _ = task.await;
+                }
+            }
+        }
+    }
 }
 
 fn stream_settings(config: &FaithdConfig) -> StreamSettings {
@@ -425,8 +505,11 @@ async fn commander_task(
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;
     let mut request: Option<(i64, RollRequest, i64, faithd_core::decide::Decision)> = None;
+    // The newest event of the first roll call of the current unbroken run of calls.
+    let mut first_call_event_us: Option<i64> = None;
     loop {
         tokio::select! {
+            biased;
             _ = tick.tick() => {}
             Ok(()) = vehicle_rx.changed() => {}
             Ok(()) = status_rx.changed() => {}
@@ -496,6 +579,7 @@ async fn commander_task(
         }
         // A roll decision is acted on only while it is fresh.
         let fresh = request.filter(|(t, _, _, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
+        first_call_event_us = fresh.and(first_call_event_us.or(fresh.map(|(_, _, e, _)| e)));
         let step = commander.step(now_us, &gate, fresh.map(|(_, r, _, _)| r));
         if let Some(t) = step.transition {
             match t {
@@ -506,11 +590,13 @@ async fn commander_task(
                     if let (Some(obs), Some((_, _, last_event_us, decision))) = (&observer, fresh) {
                         let _ = obs.send(Observation::ManoeuvreStarted {
                             last_event_us,
+                            first_call_event_us: first_call_event_us.unwrap_or(last_event_us),
                             started_us: now_us,
                             decision,
                         });
                     }
                     request = None;
+                    first_call_event_us = None;
                     check
                         .confirm
                         .start(commander.roll_value_us(direction), now_us);
@@ -572,6 +658,7 @@ async fn systemd_notifier(
             break;
         }
         tokio::select! {
+            biased;
             changed = vehicle_rx.changed() => if changed.is_err() {
                 supervise::report_fault(supervise::Fault::Crash(
                     "the autopilot link task ended before READY".into(),

@@ -63,7 +63,46 @@ pub enum Address {
     },
     /// Send to a fixed peer from an ephemeral port; only that peer is heard.
     UdpOut(SocketAddr),
+    /// A port inside this process: a simulated flight controller's UART. Never read
+    /// from a file ([`Address::parse`] does not make one); a simulation builds it.
+    InProcess(InProcessPort),
 }
+
+/// A simulated device's port: each open asks the simulation for a fresh byte
+/// stream (as reopening a UART gives a fresh session), which is what lets the
+/// daemon's own link and MSP stream run unchanged against a simulated iNav.
+#[derive(Clone)]
+pub struct InProcessPort {
+    pub name: &'static str,
+    connect: std::sync::Arc<dyn Fn() -> std::io::Result<BoxedTransport> + Send + Sync>,
+}
+
+impl InProcessPort {
+    pub fn new(
+        name: &'static str,
+        connect: impl Fn() -> std::io::Result<BoxedTransport> + Send + Sync + 'static,
+    ) -> Self {
+        Self {
+            name,
+            connect: std::sync::Arc::new(connect),
+        }
+    }
+}
+
+impl std::fmt::Debug for InProcessPort {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "InProcessPort({})", self.name)
+    }
+}
+
+/// The same port: the same simulation's connector.
+impl PartialEq for InProcessPort {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.connect, &other.connect)
+    }
+}
+
+impl Eq for InProcessPort {}
 
 impl Address {
     pub fn parse(text: &str) -> Result<Self, String> {
@@ -132,6 +171,7 @@ impl std::fmt::Display for Address {
                 peer: Some(p),
             } => write!(f, "udp:{bind}@{p}"),
             Address::UdpOut(a) => write!(f, "udpout:{a}"),
+            Address::InProcess(p) => write!(f, "inprocess:{}", p.name),
         }
     }
 }
@@ -187,6 +227,7 @@ impl Endpoint {
                 };
                 udp_stream(any, Some(*peer)).await
             }
+            Address::InProcess(port) => (port.connect)(),
         }
     }
 }
@@ -206,6 +247,7 @@ impl std::fmt::Display for Endpoint {
                 peer: Some(p),
             } => write!(f, "udp listening on {bind}, peer {p}"),
             Address::UdpOut(a) => write!(f, "udp to {a}"),
+            Address::InProcess(p) => write!(f, "in-process port {} (simulated)", p.name),
         }
     }
 }

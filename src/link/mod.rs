@@ -223,8 +223,21 @@ async fn serve(
     let mut deadline = tokio::time::Instant::now() + silence;
     let mut beat = tokio::time::interval(crate::supervise::BEAT_PERIOD);
     loop {
+        // Biased, timers first: a stream of frames cannot starve the heartbeat,
+        // and the silence deadline is only judged once no frame is waiting.
         tokio::select! {
+            biased;
             _ = beat.tick() => alive.beat(),
+            _ = heartbeat.tick() => {
+                if let Err(e) = send(config, clock, &mut write_half, sequence, &own_heartbeat(), outputs).await {
+                    return format!("write failed: {e}");
+                }
+            }
+            Some(msg) = outgoing.recv() => {
+                if let Err(e) = send(config, clock, &mut write_half, sequence, &msg, outputs).await {
+                    return format!("write failed: {e}");
+                }
+            }
             got = reader.read_any_message::<MavMessage>() => match got {
                 Ok((header, msg)) => {
                     if !from_autopilot(config, &header) {
@@ -252,18 +265,8 @@ async fn serve(
                     tracing::debug!(skipped, "undecodable MAVLink frame skipped: {e}");
                 }
             },
-            Some(msg) = outgoing.recv() => {
-                if let Err(e) = send(config, clock, &mut write_half, sequence, &msg, outputs).await {
-                    return format!("write failed: {e}");
-                }
-            }
             _ = tokio::time::sleep_until(deadline) => {
                 return format!("nothing from the autopilot for {} ms", silence.as_millis());
-            }
-            _ = heartbeat.tick() => {
-                if let Err(e) = send(config, clock, &mut write_half, sequence, &own_heartbeat(), outputs).await {
-                    return format!("write failed: {e}");
-                }
             }
         }
     }

@@ -107,6 +107,9 @@ enum Command {
 enum BenchCommand {
     /// Table I of the paper: all four FOE methods on simulated flights.
     Foe(simulate::BenchFoeArgs),
+    /// Fit the model of the pipeline's compute time that simulated flights charge
+    /// (`sim --cpu-scale`) to this machine, and show how well the committed one fits.
+    Compute(simulate::BenchComputeArgs),
 }
 
 fn main() -> ExitCode {
@@ -140,6 +143,10 @@ fn try_main(command: Command) -> Result<(), Failure> {
         Command::Bench {
             what: BenchCommand::Foe(args),
         } => simulate::bench_foe(&args),
+        #[cfg(feature = "sim")]
+        Command::Bench {
+            what: BenchCommand::Compute(args),
+        } => simulate::bench_compute(&args),
         Command::Run(args) => flight::run(&args),
         Command::Replay(args) => flight::replay(&args),
         Command::CheckConfig { path } => flight::check_config(&path),

@@ -36,6 +36,118 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 10_000, requires = "open_loop",
           value_parser = clap::value_parser!(i64).range(1_000..=1_000_000))]
     window_us: i64,
+    #[command(flatten)]
+    world: WorldArgs,
+}
+
+/// The simulated world and board of a closed-loop flight.
+#[derive(Args)]
+pub struct WorldArgs {
+    /// The camera: the ray-traced DVS simulator (realistic) or the analytic line
+    /// camera (pole silhouettes and stripes; fast).
+    #[arg(long, value_enum, default_value_t = Camera::Dvs)]
+    camera: Camera,
+    /// The room the poles stand in (the DVS camera; the line camera draws the arena).
+    #[arg(long, value_enum, default_value_t = Scene::Arena)]
+    scene: Scene,
+    /// How much slower than this machine the board computes: 1 is this machine,
+    /// `atom` the paper's Intel Atom x5-Z8350 (see docs/tuning.md).
+    #[arg(long, default_value = "1", value_parser = parse_cpu_scale)]
+    cpu_scale: f64,
+    /// What a pipeline cycle costs in simulated time: the calibrated model of this
+    /// machine (the same on every run) or the time measured now (follows the load).
+    #[arg(long, value_enum, default_value_t = Compute::Model)]
+    compute: Compute,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Camera {
+    Dvs,
+    Line,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Scene {
+    Arena,
+    Kitchen,
+    Shelves,
+    Warehouse,
+    /// The four in turn, flight by flight (`faithd sim`).
+    Mixed,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Compute {
+    Model,
+    Measured,
+}
+
+/// `--cpu-scale`: a factor of 0.01 to 100, or `atom`.
+fn parse_cpu_scale(text: &str) -> Result<f64, String> {
+    if text.eq_ignore_ascii_case("atom") {
+        return Ok(faithd::cycle::compute::ATOM_X5_Z8350_SCALE);
+    }
+    let scale: f64 = text
+        .parse()
+        .map_err(|_| format!("`{text}` is neither a number nor `atom`"))?;
+    if (0.01..=100.0).contains(&scale) {
+        Ok(scale)
+    } else {
+        Err(format!("must be 0.01 to 100, got {scale}"))
+    }
+}
+
+impl WorldArgs {
+    fn options(&self) -> faithd::closed_loop::FlyOptions {
+        use faithd::cycle::compute::ComputeCharge;
+        faithd::closed_loop::FlyOptions {
+            compute: match self.compute {
+                Compute::Model => ComputeCharge::modelled(self.cpu_scale),
+                Compute::Measured => ComputeCharge::Measured {
+                    cpu_scale: self.cpu_scale,
+                },
+            },
+        }
+    }
+
+    /// The camera and scene of flight `index`.
+    fn apply(&self, index: usize, spec: &mut faithd::closed_loop::FlightSpec) {
+        use faithd::closed_loop::{CameraKind, SceneKind};
+        spec.camera = match self.camera {
+            Camera::Dvs => CameraKind::Dvs,
+            Camera::Line => CameraKind::Line,
+        };
+        spec.scene = match self.scene {
+            Scene::Arena => SceneKind::Arena,
+            Scene::Kitchen => SceneKind::Kitchen,
+            Scene::Shelves => SceneKind::Shelves,
+            Scene::Warehouse => SceneKind::Warehouse,
+            Scene::Mixed => SceneKind::ALL[index % SceneKind::ALL.len()],
+        };
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "{} camera{}, compute {} at cpu scale {}",
+            match self.camera {
+                Camera::Dvs => "ray-traced DVS",
+                Camera::Line => "analytic line",
+            },
+            match (self.camera, self.scene) {
+                (Camera::Line, _) => String::new(),
+                (_, Scene::Arena) => " in the arena".into(),
+                (_, Scene::Kitchen) => " in the kitchen".into(),
+                (_, Scene::Shelves) => " among shelves".into(),
+                (_, Scene::Warehouse) => " in the warehouse".into(),
+                (_, Scene::Mixed) => " in the four scenes in turn".into(),
+            },
+            match self.compute {
+                Compute::Model => "modelled",
+                Compute::Measured => "measured",
+            },
+            self.cpu_scale
+        )
+    }
 }
 
 /// `faithd sim`.
@@ -57,6 +169,12 @@ pub struct SimArgs {
     /// faithd.toml); the defaults otherwise.
     #[arg(long, requires = "straight")]
     config: Option<PathBuf>,
+    /// Flights flown at once (default: one per core). The result does not depend
+    /// on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+    threads: Option<u32>,
+    #[command(flatten)]
+    world: WorldArgs,
 }
 
 /// `faithd bench foe`.
@@ -93,33 +211,37 @@ pub fn demo(args: &DemoArgs) -> Result<(), Failure> {
 /// `faithd sim`: the closed-loop experiment, or its straight-flight proxy.
 pub fn sim(args: &SimArgs) -> Result<(), Failure> {
     if args.straight {
-        sim_straight(args.runs, args.seed, args.config.as_deref(), args.json)
+        sim_straight(args)
     } else {
-        sim_closed_loop(args.runs, args.seed, args.json)
+        sim_closed_loop(args)
     }
 }
 
 fn closed_loop_demo(args: &DemoArgs) -> Result<(), Failure> {
     let (seed, offset_m, manual, json) = (args.seed, args.offset_m, args.manual, args.json);
     let plot = args.plot.as_path();
-    let spec = faithd::closed_loop::FlightSpec {
+    let mut spec = faithd::closed_loop::FlightSpec {
         lateral_offset_m: offset_m,
         pilot_auto: !manual,
         seed,
         ..Default::default()
     };
+    args.world.apply(0, &mut spec);
     eprintln!(
-        "faithd demo: the daemon flies a simulated quadrotor at a pole ({} m/s, course {:+.2} m from its centre), simulated iNav over MAVLink on loopback UDP; switch {}",
+        "faithd demo: the daemon flies a simulated quadrotor at a pole ({} m/s, course {:+.2} m from its centre) against a simulated iNav (MAVLink and MSP on simulated UARTs), in simulated time; {}; switch {}",
         spec.speed_m_s,
         spec.lateral_offset_m,
+        args.world.describe(),
         if manual {
             "stays in MANUAL"
         } else {
             "to AUTO at 0.5 s"
         }
     );
-    let outcome = faithd::closed_loop::fly(&spec)
+    let started = std::time::Instant::now();
+    let outcome = faithd::closed_loop::fly(&spec, &args.world.options())
         .map_err(|e| Failure::failed(format!("cannot fly the demo: {e}")))?;
+    let wall_s = started.elapsed().as_secs_f64();
     if let Some(dir) = plot.parent() {
         let _ = std::fs::create_dir_all(dir);
     }
@@ -142,11 +264,26 @@ fn closed_loop_demo(args: &DemoArgs) -> Result<(), Failure> {
         );
         match (outcome.decision_s, outcome.ttc_at_decision_s) {
             (Some(t), Some(ttc)) => println!(
-                "  roll decided at {t:.2} s of flight, true time to contact then {ttc:.2} s; first roll frame at the autopilot {:.1} ms after the deciding event",
+                "  roll decided at {t:.2} s of flight, true time to contact then {ttc:.2} s; roll in use at the autopilot {:.1} ms after the deciding event",
                 outcome.latency_ms.unwrap_or(f64::NAN)
             ),
             _ => println!("  no roll commanded"),
         }
+        let p = &outcome.pipeline;
+        println!(
+            "  pipeline: {} cycles, {:.2} ms median ({:.2} ms p99) at cpu scale {}; {} over budget, {} with load shed",
+            p.cycles,
+            p.charged_us_p50 / 1e3,
+            p.charged_us_p99 / 1e3,
+            args.world.cpu_scale,
+            p.overruns,
+            p.shed_cycles
+        );
+        println!(
+            "  {} events; {:.2} s of flight simulated in {wall_s:.1} s",
+            outcome.events,
+            outcome.path.last().map_or(0.0, |p| p.t_s)
+        );
         println!(
             "  result: {}, closest gap between vehicle and pole {:.2} m",
             if outcome.collided {
@@ -164,99 +301,164 @@ fn closed_loop_demo(args: &DemoArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn sim_closed_loop(runs: usize, seed: u64, json: bool) -> Result<(), Failure> {
+fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     use faithd::closed_loop::experiment;
-    let specs = experiment::plan(runs, seed);
-    let mut outcomes = Vec::with_capacity(runs);
-    for (i, spec) in specs.iter().enumerate() {
-        match faithd::closed_loop::fly(spec) {
-            Ok(o) => {
-                eprintln!(
-                    "[{}/{}] {} offset {:+.2} m, heading {:+.1} deg, {:.1} m/s: {}{}{}",
-                    i + 1,
-                    runs,
-                    if o.collision_course {
-                        "collision course"
-                    } else {
-                        "near pass       "
-                    },
-                    spec.lateral_offset_m,
-                    spec.heading_deg,
-                    spec.speed_m_s,
-                    if o.collided { "HIT" } else { "clear" },
-                    match (o.rolled, roll_ttc_s(&o)) {
-                        (true, Some((measured, truth))) => format!(
-                            ", rolled at {:.2} s of flight, TTC {measured:.2} s measured, {truth:.2} s true",
-                            o.decision_s.unwrap_or(f64::NAN)
-                        ),
-                        (true, None) => ", rolled".into(),
-                        (false, _) => String::new(),
-                    },
-                    match o.latency_ms {
-                        Some(ms) =>
-                            format!(", first roll frame {ms:.1} ms after the deciding event"),
-                        None => String::new(),
-                    }
-                );
-                if let (false, Some(d)) = (o.collision_course, &o.decision) {
-                    eprintln!("    rolled on a near pass: {d}");
-                }
-                outcomes.push(o);
-            }
-            Err(e) => {
-                return Err(Failure::failed(format!(
-                    "flight {} failed to run: {e}",
-                    i + 1
-                )));
-            }
-        }
+    let (runs, seed) = (args.runs, args.seed);
+    let mut specs = experiment::plan(runs, seed);
+    for (i, spec) in specs.iter_mut().enumerate() {
+        args.world.apply(i, spec);
     }
-    let summary = experiment::summarise(&outcomes, seed);
-    if json {
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    eprintln!(
+        "faithd sim: {runs} closed-loop flights, seed {seed}, {}; {threads} at a time",
+        args.world.describe()
+    );
+    let options = args.world.options();
+    let started = std::time::Instant::now();
+    let progress = progress_bar(runs as u64, "flights");
+    let outcomes = experiment::fly_all(&specs, &options, threads, |i, o| {
+        let line = flight_line(i, runs, &specs[i], o);
+        if progress.is_hidden() {
+            eprintln!("{line}");
+        } else {
+            progress.println(line);
+        }
+        progress.inc(1);
+    })
+    .map_err(Failure::failed)?;
+    progress.finish_and_clear();
+    let summary = experiment::summarise(&outcomes, seed, &options);
+    eprintln!(
+        "{runs} flights ({:.0} s of flight) in {:.0} s on {threads} threads",
+        summary.simulated_s,
+        started.elapsed().as_secs_f64()
+    );
+    if args.json {
         println!(
             "{}",
             serde_json::to_string(&summary).expect("summary serialises")
         );
-    } else {
-        println!(
-            "faithd sim: {} closed-loop flights, seed {}",
-            summary.runs, summary.seed
-        );
-        println!(
-            "  collision courses {}: avoided {} ({:.1}%)",
-            summary.collision_courses,
-            summary.avoided,
-            100.0 * summary.success_rate
-        );
-        println!(
-            "  near passes {}: false avoidances {} ({:.1}%), contacts {}",
-            summary.near_passes,
-            summary.false_avoidances,
-            100.0 * summary.false_avoidances as f64 / summary.near_passes.max(1) as f64,
-            summary.near_pass_contacts
-        );
-        println!(
-            "  latency, deciding event to first roll frame: p50 {:.1} ms, p99 {:.1} ms",
-            summary.latency_ms_p50, summary.latency_ms_p99
-        );
-        println!(
-            "  true TTC at the roll (median): {:.2} s",
-            summary.ttc_at_decision_s_p50
-        );
+        return Ok(());
     }
+    println!(
+        "faithd sim: {} closed-loop flights, seed {}, {}",
+        summary.runs,
+        summary.seed,
+        args.world.describe()
+    );
+    println!(
+        "  collision courses {}: avoided {} ({:.1}%)",
+        summary.collision_courses,
+        summary.avoided,
+        100.0 * summary.success_rate
+    );
+    println!(
+        "  near passes {}: false avoidances {} ({:.1}%), contacts {}",
+        summary.near_passes,
+        summary.false_avoidances,
+        100.0 * summary.false_avoidances as f64 / summary.near_passes.max(1) as f64,
+        summary.near_pass_contacts
+    );
+    println!(
+        "  deciding event to roll in use at the autopilot: p50 {:.1} ms, p99 {:.1} ms; from the first call (with the gate's hold): p50 {:.1} ms, p99 {:.1} ms",
+        summary.latency_ms_p50,
+        summary.latency_ms_p99,
+        summary.latency_from_first_call_ms_p50,
+        summary.latency_from_first_call_ms_p99
+    );
+    println!(
+        "  true TTC at the roll (median): {:.2} s",
+        summary.ttc_at_decision_s_p50
+    );
+    println!(
+        "  pipeline cycles {}: {:.2} ms median, {:.2} ms p99; {} over budget, {} with load shed",
+        summary.cycles,
+        summary.cycle_ms_p50,
+        summary.cycle_ms_p99,
+        summary.overruns,
+        summary.shed_cycles
+    );
     Ok(())
 }
 
-fn sim_straight(runs: usize, seed: u64, config: Option<&Path>, json: bool) -> Result<(), Failure> {
+/// One flight's line in the log of `faithd sim`.
+fn flight_line(
+    i: usize,
+    runs: usize,
+    spec: &faithd::closed_loop::FlightSpec,
+    o: &faithd::closed_loop::FlightOutcome,
+) -> String {
+    let mut line = format!(
+        "[{}/{}] {} {:<9} offset {:+.2} m, heading {:+.1} deg, {:.1} m/s: {}",
+        i + 1,
+        runs,
+        if o.collision_course {
+            "collision course"
+        } else {
+            "near pass       "
+        },
+        spec.scene.name(),
+        spec.lateral_offset_m,
+        spec.heading_deg,
+        spec.speed_m_s,
+        if o.collided { "HIT" } else { "clear" },
+    );
+    match (o.rolled, roll_ttc_s(o)) {
+        (true, Some((measured, truth))) => {
+            line += &format!(
+                ", rolled at {:.2} s of flight, TTC {measured:.2} s measured, {truth:.2} s true",
+                o.decision_s.unwrap_or(f64::NAN)
+            )
+        }
+        (true, None) => line += ", rolled",
+        (false, _) => {}
+    }
+    if let Some(ms) = o.latency_ms {
+        line += &format!(", roll in use {ms:.1} ms after the deciding event");
+    }
+    if o.pipeline.overruns > 0 {
+        line += &format!(", {} cycles over budget", o.pipeline.overruns);
+    }
+    if let (false, Some(d)) = (o.collision_course, &o.decision) {
+        line += &format!("\n    rolled on a near pass: {d}");
+    }
+    line
+}
+
+/// A progress bar on standard error when it is a terminal; hidden (and silent) in
+/// a pipe or a file.
+pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what}, {{elapsed}} elapsed, about {{eta}} left"
+        ))
+        .expect("progress template"),
+    );
+    bar
+}
+
+fn sim_straight(args: &SimArgs) -> Result<(), Failure> {
     use faithd::closed_loop::{experiment, straight};
-    let config = match config.map(FaithdConfig::load).transpose() {
+    let (runs, seed, json) = (args.runs, args.seed, args.json);
+    let config = match args.config.as_deref().map(FaithdConfig::load).transpose() {
         Ok(c) => c.unwrap_or_default().pipeline,
         Err(e) => {
             return Err(Failure::refused(e));
         }
     };
-    let specs = experiment::plan(runs, seed);
-    let outcomes = straight::fly_all(&specs, &config, 2);
+    let mut specs = experiment::plan(runs, seed);
+    for (i, spec) in specs.iter_mut().enumerate() {
+        args.world.apply(i, spec);
+    }
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    let outcomes = straight::fly_all(&specs, &config, threads);
     for (i, o) in outcomes.iter().enumerate() {
         let what = match (&o.roll, o.collision_course) {
             (None, true) => "collision course: NO ROLL".to_string(),
@@ -356,6 +558,74 @@ fn roll_ttc_s(o: &faithd::closed_loop::FlightOutcome) -> Option<(f64, f64)> {
         _ => return None,
     };
     Some((measured, o.ttc_at_decision_s?))
+}
+
+/// `faithd bench compute`.
+#[derive(Args)]
+pub struct BenchComputeArgs {
+    /// Flights of the experiment's plan to measure (flown straight).
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    flights: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    world: WorldArgs,
+}
+
+pub fn bench_compute(args: &BenchComputeArgs) -> Result<(), Failure> {
+    use faithd::closed_loop::{calibrate, experiment};
+    use faithd::cycle::compute::ComputeModel;
+    let mut specs = experiment::plan(args.flights as usize, args.seed);
+    for (i, spec) in specs.iter_mut().enumerate() {
+        args.world.apply(i, spec);
+    }
+    let config = faithd_core::pipeline::PipelineConfig::default();
+    let progress = progress_bar(specs.len() as u64, "flights");
+    // One flight at a time: the model stands for one core of this machine.
+    let mut samples = Vec::new();
+    for spec in &specs {
+        samples.extend(calibrate::measure(spec, &config));
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    let fitted = calibrate::fit(&samples);
+    let committed = calibrate::judge(&ComputeModel::CALIBRATED, &samples);
+    if args.json {
+        let both = serde_json::json!({ "fitted": fitted, "committed": committed });
+        println!("{both}");
+        return Ok(());
+    }
+    println!(
+        "faithd bench compute: {} windows of {} flights ({})",
+        fitted.windows,
+        specs.len(),
+        args.world.describe()
+    );
+    println!("  term                              fitted ns    committed ns");
+    for ((name, c), (_, k)) in fitted.terms.iter().zip(&committed.terms) {
+        println!("  {name:<32} {c:>10.3} {k:>14.3}");
+    }
+    for (label, r) in [("fitted", &fitted), ("committed", &committed)] {
+        println!(
+            "  {label}: mean window {:.0} us measured, {:.0} us modelled; per-window error median {:.0}%, 90th percentile {:.0}%",
+            r.measured_mean_us,
+            r.modelled_mean_us,
+            100.0 * r.relative_error_p50,
+            100.0 * r.relative_error_p90
+        );
+    }
+    println!("  per stage, mean us measured / fitted / committed:");
+    for ((stage, measured, f), (_, _, k)) in fitted.stages.iter().zip(&committed.stages) {
+        println!("    {stage:?}: {measured:.1} / {f:.1} / {k:.1}");
+    }
+    println!(
+        "  as code: ns: {:?}",
+        fitted.model.ns.map(|c| (c * 1000.0).round() / 1000.0)
+    );
+    Ok(())
 }
 
 pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {

@@ -76,18 +76,38 @@ pub fn arena(poles: &[(f64, f64)], seed: u64) -> Scene {
         4.0,
         Texture::new(Pattern::Tiles, 0.35, 0.6, 0.45, s),
     )];
-    for (i, &(x, y)) in poles.iter().enumerate() {
-        solids.push(Solid {
-            shape: Shape::Pole {
-                x,
-                y,
-                radius: 0.25,
-                z_top: -4.0,
-            },
-            texture: Texture::new(Pattern::Bands, 0.12, 0.8, 0.6, s ^ (17 + i as u32)),
-        });
-    }
+    solids.extend(poles.iter().enumerate().map(|(i, &p)| pole(p, i, s)));
     Scene::new("arena", solids)
+}
+
+/// A 50 cm pole from the floor to 4 m, striped as the arena's are.
+fn pole((x, y): (f64, f64), index: usize, seed: u32) -> Solid {
+    Solid {
+        shape: Shape::Pole {
+            x,
+            y,
+            radius: 0.25,
+            z_top: -4.0,
+        },
+        texture: Texture::new(Pattern::Bands, 0.12, 0.8, 0.6, seed ^ (17 + index as u32)),
+    }
+}
+
+/// A scene of `kind` with 50 cm poles at (x, y): the closed loop's obstacles in any
+/// of the four rooms (the arena gets these poles instead of its own).
+pub fn with_poles(kind: SceneKind, seed: u64, poles: &[(f64, f64)]) -> Scene {
+    if kind == SceneKind::Arena {
+        return arena(poles, seed);
+    }
+    let scene = kind.build(seed);
+    let mut solids = scene.solids;
+    solids.extend(
+        poles
+            .iter()
+            .enumerate()
+            .map(|(i, &p)| pole(p, i, seed as u32)),
+    );
+    Scene::new(scene.name, solids)
 }
 
 /// A kitchen: tiled room, counters and cabinets of wood along the walls, a table.

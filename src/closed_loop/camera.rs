@@ -1,0 +1,94 @@
+//! The camera of a simulated flight: the ray-traced DVS simulator of `bench foe`
+//! (the realistic one: textured scenes, threshold mismatch, refractory period,
+//! noise), or the analytic line camera (pole silhouettes and wall stripes, much
+//! cheaper, for quick runs).
+
+use serde::Serialize;
+
+use super::FlightSpec;
+use faithd_core::camera::{CameraIntrinsics, Mounting};
+use faithd_core::event::Event;
+use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};
+use faithd_sim::world::scenes::with_poles;
+use faithd_sim::world::{DvsConfig, EventCamera, Scene, VehicleState};
+
+/// Which camera renders a flight.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraKind {
+    /// The ray-traced DVS simulator, in the flight's scene.
+    #[default]
+    Dvs,
+    /// The analytic line camera (the arena only).
+    Line,
+}
+
+/// A flight's camera, stepped along the vehicle's true path.
+pub enum FlightCamera {
+    Line(Box<LineCamera>),
+    Dvs(Box<DvsView>),
+}
+
+/// The ray-traced camera and the scene it flies through.
+pub struct DvsView {
+    scene: Scene,
+    camera: EventCamera,
+}
+
+/// Renders per second of the ray-traced camera: the rate `bench foe` renders at.
+const RENDER_EVERY_US: i64 = 1000;
+
+impl FlightCamera {
+    pub fn new(spec: &FlightSpec) -> Self {
+        match spec.camera {
+            CameraKind::Line => {
+                let mut arena = arena(spec);
+                arena.contrast = spec.contrast;
+                let mut camera = LineCamera::new(
+                    CameraIntrinsics::dvs240(),
+                    Mounting::forward(),
+                    arena,
+                    spec.seed,
+                );
+                camera.noise_rate_hz = spec.noise_rate_hz;
+                FlightCamera::Line(Box::new(camera))
+            }
+            CameraKind::Dvs => {
+                let mut scene = with_poles(spec.scene, spec.seed, &spec.poles);
+                for solid in &mut scene.solids {
+                    solid.texture.contrast *= spec.contrast;
+                }
+                let dvs = DvsConfig {
+                    noise_rate_hz: spec.noise_rate_hz,
+                    ..DvsConfig::default()
+                };
+                let camera = EventCamera::new(
+                    CameraIntrinsics::dvs240(),
+                    Mounting::forward(),
+                    dvs,
+                    spec.seed,
+                );
+                FlightCamera::Dvs(Box::new(DvsView { scene, camera }))
+            }
+        }
+    }
+
+    /// Moves the camera to `state` at `t_us` (called every physics step); appends the
+    /// events it has fired since the last call, time-ordered.
+    pub fn step(&mut self, state: &VehicleState, t_us: i64, out: &mut Vec<Event>) {
+        match self {
+            FlightCamera::Line(c) => c.advance(state, t_us, out),
+            FlightCamera::Dvs(v) => {
+                if t_us % RENDER_EVERY_US == 0 {
+                    v.camera.advance(&v.scene, state, t_us, out);
+                }
+            }
+        }
+    }
+}
+
+/// The poles of a flight (contact is judged against these), as the line camera
+/// draws them.
+pub fn arena(spec: &FlightSpec) -> ArenaSpec {
+    ArenaSpec::with_poles(&spec.poles)
+}
