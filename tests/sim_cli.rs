@@ -1,0 +1,133 @@
+//! `faithd sim` and `faithd demo` as a user runs them: the same seed gives the same
+//! JSON, byte for byte, however many flights fly at once and whatever else the
+//! machine is doing; a pipe gets lines, never a progress bar.
+
+use std::process::{Command, Output};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+fn faithd(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(args)
+        .output()
+        .expect("run faithd")
+}
+
+/// Keeps every core busy until dropped.
+struct Load {
+    stop: Arc<AtomicBool>,
+    threads: Vec<std::thread::JoinHandle<()>>,
+}
+
+impl Load {
+    fn start() -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+        let threads = (0..cores)
+            .map(|_| {
+                let stop = stop.clone();
+                std::thread::spawn(move || {
+                    let mut x = 1u64;
+                    while !stop.load(Ordering::Relaxed) {
+                        x = std::hint::black_box(x.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 7);
+                    }
+                })
+            })
+            .collect();
+        Self { stop, threads }
+    }
+}
+
+impl Drop for Load {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+#[test]
+fn the_same_seed_gives_the_same_json_at_any_parallelism_and_load() {
+    let args = ["sim", "--runs", "3", "--seed", "5", "--json"];
+    let alone = faithd(&[&args[..], &["--threads", "1"]].concat());
+    assert!(
+        alone.status.success(),
+        "{}",
+        String::from_utf8_lossy(&alone.stderr)
+    );
+    let loaded = {
+        let _load = Load::start();
+        faithd(&[&args[..], &["--threads", "3"]].concat())
+    };
+    assert!(loaded.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&alone.stdout),
+        String::from_utf8_lossy(&loaded.stdout)
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&alone.stdout).unwrap();
+    assert_eq!(summary["runs"], 3);
+    assert_eq!(summary["camera"], "dvs");
+    assert_eq!(summary["compute"], "model");
+    assert!(summary["cycles"].as_u64().unwrap() > 600, "{summary}");
+    // The published keys are still there.
+    for key in [
+        "collision_courses",
+        "avoided",
+        "near_passes",
+        "false_avoidances",
+        "success_rate",
+        "latency_ms_p50",
+        "latency_ms_p99",
+        "seed",
+        "ttc_at_decision_s_p50",
+    ] {
+        assert!(summary.get(key).is_some(), "{key} missing: {summary}");
+    }
+    // Piped, the log is lines: one per flight and the timing, no bar.
+    let log = String::from_utf8_lossy(&alone.stderr);
+    assert!(!log.contains('\r') && !log.contains("\u{1b}["), "{log:?}");
+    assert_eq!(
+        log.lines().filter(|l| l.starts_with('[')).count(),
+        3,
+        "{log}"
+    );
+}
+
+#[test]
+fn the_demo_flies_on_the_atom_board_and_reports_its_cycles() {
+    let out = faithd(&[
+        "demo",
+        "--json",
+        "--cpu-scale",
+        "atom",
+        "--plot",
+        "/dev/null",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(o["spec"]["camera"], "dvs");
+    assert_eq!(o["spec"]["scene"], "arena");
+    let cycles = o["pipeline"]["cycles"].as_u64().unwrap();
+    assert!(cycles > 200, "{o}");
+    // Seven times this machine's compute: a median cycle of several milliseconds.
+    assert!(
+        o["pipeline"]["charged_us_p50"].as_f64().unwrap() > 3000.0,
+        "{o}"
+    );
+}
+
+#[test]
+fn a_bad_cpu_scale_is_refused_with_the_reason() {
+    let out = faithd(&["sim", "--cpu-scale", "fast"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("neither a number nor `atom`"), "{err}");
+    let out = faithd(&["demo", "--cpu-scale", "0"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("0.01 to 100"));
+}
