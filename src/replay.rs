@@ -281,7 +281,7 @@ pub fn replay_window_log(
     if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
         tracing::info!(
             version = header.faithd_window_log,
-            "window log from an older faithd: replaying without FAITH's speed fit, as it flew"
+            "window log from an older faithd: replaying as it flew (version 1: without FAITH's speed fit; versions 1 and 2: every event fitted)"
         );
     }
     let mut attitude = match tlog_path {
@@ -318,17 +318,21 @@ pub fn replay_window_log(
         let window =
             RecordedWindow::deserialize(&recorded).map_err(|e| log_err(line_no, e.to_string()))?;
         // Load shedding only ever lowers these from the configured values.
+        let max_fits = window.max_fits.unwrap_or(config.flow.max_fits_per_window);
         if window.max_vectors > config.max_vectors
             || window.foe_iterations > config.faith.iterations
+            || max_fits > config.flow.max_fits_per_window
         {
             return Err(log_err(
                 line_no,
                 format!(
-                    "max_vectors {} / foe_iterations {} exceed the configuration's {} / {}",
+                    "max_vectors {} / foe_iterations {} / max_fits {} exceed the configuration's {} / {} / {}",
                     window.max_vectors,
                     window.foe_iterations,
+                    max_fits,
                     config.max_vectors,
-                    config.faith.iterations
+                    config.faith.iterations,
+                    config.flow.max_fits_per_window
                 ),
             ));
         }
@@ -356,6 +360,7 @@ pub fn replay_window_log(
         }
         pipeline.set_max_vectors(window.max_vectors);
         pipeline.set_foe_iterations(window.foe_iterations);
+        pipeline.set_max_fits(max_fits);
         attitude.window(window.t_us, config.history_us, &mut samples);
         let report = pipeline.process_window(
             &pending[..window.events],

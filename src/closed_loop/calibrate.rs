@@ -22,7 +22,10 @@ const WINDOW_US: i64 = 10_000;
 const ATTITUDE_US: i64 = 40_000;
 
 /// Every window of `spec` flown straight to 1 m past its first pole: its counts and
-/// its stages' measured times.
+/// its stages' measured times. Windows take the load-shedding levels 0 to 3 in turn
+/// (halved fits, vectors and iterations, as `cycle::shed` sets them), so that each
+/// cost is seen apart from the others: at full load FAITH's iterations never change,
+/// and its per-vector cost could not be told from its per-iteration one.
 pub fn measure(spec: &FlightSpec, config: &PipelineConfig) -> Vec<(Work, StageTimings)> {
     let mut quad = initial_quad(spec);
     let mut camera = FlightCamera::new(spec);
@@ -44,12 +47,14 @@ pub fn measure(spec: &FlightSpec, config: &PipelineConfig) -> Vec<(Work, StageTi
         if t_us % WINDOW_US != 0 {
             continue;
         }
+        let level = (samples.len() % 4) as u32;
+        let iterations = (config.faith.iterations >> level).max(1);
+        pipeline.set_foe_iterations(iterations);
+        pipeline.set_max_vectors(config.max_vectors >> level);
+        pipeline.set_max_fits(config.flow.max_fits_per_window >> level);
         let take = faithd_core::window::events_until(&pending, t_us);
         let report = pipeline.process_window(&pending[..take], &attitude, t_us, &mut clock);
-        samples.push((
-            Work::of(&report, take, config.faith.iterations),
-            report.timings,
-        ));
+        samples.push((Work::of(&report, take, iterations), report.timings));
         pending.drain(..take);
     }
     samples

@@ -32,7 +32,7 @@ use faithd_core::pipeline::{Pipeline, PipelineConfig, StageClock, WindowReport};
 use faithd_core::safety::gate::{PipelineProblem, PipelineStatus};
 use faithd_formats::window_log::WindowLine;
 use faithd_formats::window_log::WindowLogLine;
-use shed::Shedder;
+use shed::{Load, Shedder};
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -44,6 +44,7 @@ pub struct DaemonConfig {
     /// Load shedding never goes below these.
     pub shed_min_vectors: usize,
     pub shed_min_iterations: u32,
+    pub shed_min_fits: usize,
     /// No event batch for this long: the camera is gone, the pipeline unhealthy.
     pub event_stale_us: i64,
 }
@@ -55,6 +56,7 @@ impl Default for DaemonConfig {
             budget_us: 8_000,
             shed_min_vectors: 300,
             shed_min_iterations: 13,
+            shed_min_fits: 250,
             event_stale_us: 200_000,
         }
     }
@@ -87,6 +89,9 @@ impl DaemonConfig {
             "daemon.shed_min_iterations",
             || "must be at least 1".into(),
         )?;
+        check(d.shed_min_fits >= 1, "daemon.shed_min_fits", || {
+            "must be at least 1".into()
+        })?;
         check(
             (1000..=10_000_000).contains(&d.event_stale_us),
             "daemon.event_stale_us",
@@ -129,7 +134,7 @@ pub struct CycleOutputs {
 pub struct Work {
     /// Events in the window.
     pub events: usize,
-    /// Events that reached a plane fit (in view, not refractory).
+    /// Events that reached a plane fit (in view, not refractory, within the cap).
     pub fits: usize,
     /// Flow vectors the window produced (derotated).
     pub new_vectors: usize,
@@ -150,7 +155,8 @@ impl Work {
             events,
             fits: stats
                 .events
-                .saturating_sub(stats.out_of_view + stats.refractory) as usize,
+                .saturating_sub(stats.out_of_view + stats.refractory + stats.not_fitted)
+                as usize,
             new_vectors: stats.vectors as usize,
             history_vectors: report.vectors.len(),
             foe_vectors: report.decision.vectors,
@@ -194,6 +200,7 @@ pub struct Cycle {
     /// The load-shedding settings in force, for the window log.
     max_vectors: usize,
     foe_iterations: u32,
+    max_fits: usize,
     overrun_log: Throttle,
 }
 
@@ -202,10 +209,18 @@ impl Cycle {
         Self {
             pipeline: Pipeline::new(pipeline_config),
             shedder: Shedder::new(
-                pipeline_config.max_vectors,
-                pipeline_config.faith.iterations,
-                config.shed_min_vectors,
-                config.shed_min_iterations,
+                Load {
+                    level: 0,
+                    max_vectors: pipeline_config.max_vectors,
+                    iterations: pipeline_config.faith.iterations,
+                    max_fits: pipeline_config.flow.max_fits_per_window,
+                },
+                Load {
+                    level: 0,
+                    max_vectors: config.shed_min_vectors,
+                    iterations: config.shed_min_iterations,
+                    max_fits: config.shed_min_fits,
+                },
             ),
             pending: Vec::new(),
             attitude: Vec::new(),
@@ -213,6 +228,7 @@ impl Cycle {
             last_logged: None,
             max_vectors: pipeline_config.max_vectors,
             foe_iterations: pipeline_config.faith.iterations,
+            max_fits: pipeline_config.flow.max_fits_per_window,
             overrun_log: Throttle::new(LOG_EVERY_US),
             pipeline_config,
             config,
@@ -267,6 +283,7 @@ impl Cycle {
                 line: &line,
                 max_vectors: self.max_vectors,
                 foe_iterations: self.foe_iterations,
+                max_fits: self.max_fits,
             };
             serde_json::to_string(&logged).expect("window line serialises")
         });
@@ -333,11 +350,14 @@ impl Cycle {
         if let Some(load) = self.shedder.observe(cycle_us, budget_us) {
             self.pipeline.set_max_vectors(load.max_vectors);
             self.pipeline.set_foe_iterations(load.iterations);
-            (self.max_vectors, self.foe_iterations) = (load.max_vectors, load.iterations);
+            self.pipeline.set_max_fits(load.max_fits);
+            (self.max_vectors, self.foe_iterations, self.max_fits) =
+                (load.max_vectors, load.iterations, load.max_fits);
             tracing::warn!(
                 level = load.level,
                 max_vectors = load.max_vectors,
                 iterations = load.iterations,
+                max_fits = load.max_fits,
                 "load level changed"
             );
         }

@@ -1,10 +1,11 @@
 //! Load shedding: a cycle that overran its budget makes the next ones cheaper.
 //!
-//! Each level halves the flow vectors per decision and FAITH's RANSAC iterations,
-//! down to floors that still give a usable FOE. A long calm stretch (cycles well
-//! under budget) climbs back one level at a time. Pure.
+//! Each level halves the plane fits per window, the flow vectors per decision and
+//! FAITH's RANSAC iterations, down to floors that still give a usable FOE. A calm
+//! second (cycles under half the budget, so that the level above would still fit)
+//! climbs back one level. Pure.
 
-/// Cycles below a quarter of the budget in a row before one level is restored.
+/// Cycles below half the budget in a row before one level is restored.
 const CALM_CYCLES: u32 = 100;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -12,6 +13,7 @@ pub struct Load {
     pub level: u32,
     pub max_vectors: usize,
     pub iterations: u32,
+    pub max_fits: usize,
 }
 
 #[derive(Clone, Debug)]
@@ -19,6 +21,7 @@ pub struct Shedder {
     full: Load,
     min_vectors: usize,
     min_iterations: u32,
+    min_fits: usize,
     level: u32,
     calm: u32,
     /// Cycles that overran their budget since start.
@@ -26,20 +29,13 @@ pub struct Shedder {
 }
 
 impl Shedder {
-    pub fn new(
-        max_vectors: usize,
-        iterations: u32,
-        min_vectors: usize,
-        min_iterations: u32,
-    ) -> Self {
+    /// Sheds from the `full` load (level 0) down to the floors in `min`.
+    pub fn new(full: Load, min: Load) -> Self {
         Self {
-            full: Load {
-                level: 0,
-                max_vectors,
-                iterations,
-            },
-            min_vectors: min_vectors.min(max_vectors),
-            min_iterations: min_iterations.min(iterations),
+            full: Load { level: 0, ..full },
+            min_vectors: min.max_vectors.min(full.max_vectors),
+            min_iterations: min.iterations.min(full.iterations),
+            min_fits: min.max_fits.min(full.max_fits),
             level: 0,
             calm: 0,
             overruns: 0,
@@ -52,12 +48,15 @@ impl Shedder {
             level: k,
             max_vectors: (self.full.max_vectors >> k).max(self.min_vectors),
             iterations: (self.full.iterations >> k).max(self.min_iterations),
+            max_fits: (self.full.max_fits >> k).max(self.min_fits),
         }
     }
 
     fn at_floor(&self) -> bool {
         let l = self.load();
-        l.max_vectors == self.min_vectors && l.iterations == self.min_iterations
+        l.max_vectors == self.min_vectors
+            && l.iterations == self.min_iterations
+            && l.max_fits == self.min_fits
     }
 
     /// Records one cycle; returns the new load when it changed.
@@ -71,7 +70,7 @@ impl Shedder {
             self.level += 1;
             return Some(self.load());
         }
-        if cycle_us * 4 < budget_us && self.level > 0 {
+        if cycle_us * 2 < budget_us && self.level > 0 {
             self.calm += 1;
             if self.calm >= CALM_CYCLES {
                 self.calm = 0;
@@ -89,49 +88,34 @@ impl Shedder {
 mod tests {
     use super::*;
 
+    fn load(level: u32, max_vectors: usize, iterations: u32, max_fits: usize) -> Load {
+        Load {
+            level,
+            max_vectors,
+            iterations,
+            max_fits,
+        }
+    }
+
     #[test]
     fn overruns_halve_down_to_the_floor_and_calm_restores() {
-        let mut s = Shedder::new(3000, 52, 300, 13);
-        assert_eq!(
-            s.observe(12_000, 8_000).unwrap(),
-            Load {
-                level: 1,
-                max_vectors: 1500,
-                iterations: 26
-            }
-        );
-        assert_eq!(
-            s.observe(12_000, 8_000).unwrap(),
-            Load {
-                level: 2,
-                max_vectors: 750,
-                iterations: 13
-            }
-        );
-        assert_eq!(
-            s.observe(12_000, 8_000).unwrap(),
-            Load {
-                level: 3,
-                max_vectors: 375,
-                iterations: 13
-            }
-        );
-        assert_eq!(
-            s.observe(12_000, 8_000).unwrap(),
-            Load {
-                level: 4,
-                max_vectors: 300,
-                iterations: 13
-            }
-        );
+        let mut s = Shedder::new(load(0, 3000, 52, 2000), load(0, 300, 13, 250));
+        assert_eq!(s.observe(12_000, 8_000).unwrap(), load(1, 1500, 26, 1000));
+        assert_eq!(s.observe(12_000, 8_000).unwrap(), load(2, 750, 13, 500));
+        assert_eq!(s.observe(12_000, 8_000).unwrap(), load(3, 375, 13, 250));
+        assert_eq!(s.observe(12_000, 8_000).unwrap(), load(4, 300, 13, 250));
         assert_eq!(s.observe(12_000, 8_000), None, "at the floor");
         assert_eq!(s.overruns, 5);
         for _ in 0..CALM_CYCLES - 1 {
-            assert_eq!(s.observe(1_000, 8_000), None);
+            assert_eq!(s.observe(3_900, 8_000), None);
         }
-        assert_eq!(s.observe(1_000, 8_000).unwrap().level, 3);
+        assert_eq!(s.observe(3_900, 8_000).unwrap().level, 3);
         // A busy-but-within-budget cycle interrupts the calm streak.
         s.observe(5_000, 8_000);
         assert_eq!(s.load().level, 3);
+        for _ in 0..CALM_CYCLES - 1 {
+            assert_eq!(s.observe(1_000, 8_000), None);
+        }
+        assert_eq!(s.observe(1_000, 8_000).unwrap(), load(2, 750, 13, 500));
     }
 }

@@ -54,8 +54,9 @@ pub async fn run_simulated(
         sleep_until_us(&clock, started_us + charged_us).await;
         let work = outcome.work;
         cycle.publish(outcome, &io.outputs);
+        // The board's time, not the timer's (tokio's fire on whole milliseconds).
         let now_us = clock.now_us();
-        cycle.account(now_us - started_us, now_us);
+        cycle.account(charged_us, now_us);
         if let Some(tx) = &report {
             let _ = tx.send(CycleReport {
                 started_us,

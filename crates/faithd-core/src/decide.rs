@@ -34,11 +34,18 @@ pub struct DecisionConfig {
     /// about 4 m; in `faithd sim --straight`, seeds 1-8, 4 px missed 9 of 480
     /// collision courses and 6 px 16 (with FAITH's speed fit), 8 px 1.
     pub box_margin_x_px: f64,
-    /// The obstacle box is grown by this much above and below, pixels. Larger than
-    /// the horizontal margin on purpose: sparse flow on a tall obstacle covers only
-    /// parts of its height, and the manoeuvre is lateral, so what decides whether it
-    /// is in the way is mostly its horizontal extent.
+    /// The obstacle box's bottom is extended down by this much, pixels. Larger than
+    /// the horizontal margin on purpose: flow on a tall obstacle often covers only
+    /// its upper part (its lower part merges with the floor), and the manoeuvre is
+    /// lateral, so what decides whether it is in the way is mostly its horizontal
+    /// extent.
     pub box_margin_y_px: f64,
+    /// The obstacle box's top is extended up by this much, pixels: a cluster whose
+    /// top lies farther below the FOE's row than this is a patch of the floor ahead,
+    /// under the vehicle's flight level, not something a roll avoids. On the
+    /// ray-traced camera (`faithd sim --straight`, seeds 1-3), every false avoidance
+    /// with the 45 px margin of `box_margin_y_px` on both sides was such a patch.
+    pub box_margin_top_px: f64,
     /// Fewer flow vectors than this in the window and nothing is decided.
     pub min_vectors: usize,
     /// The FOE must be supported by at least this fraction of the vectors.
@@ -90,6 +97,7 @@ impl Default for DecisionConfig {
             roll_duration_us: 1_500_000,
             box_margin_x_px: 8.0,
             box_margin_y_px: 45.0,
+            box_margin_top_px: 45.0,
             min_vectors: 40,
             min_foe_support: 0.5,
             confirm_windows: 5,
@@ -114,6 +122,7 @@ impl DecisionConfig {
         )?;
         non_negative(de.box_margin_x_px, "pipeline.decision.box_margin_x_px")?;
         non_negative(de.box_margin_y_px, "pipeline.decision.box_margin_y_px")?;
+        non_negative(de.box_margin_top_px, "pipeline.decision.box_margin_top_px")?;
         check(
             (0.0..=1.0).contains(&de.min_foe_support),
             "pipeline.decision.min_foe_support",
@@ -340,7 +349,7 @@ pub fn decide(
             && c.mean_ttc_s >= config.min_ttc_s
             && fx >= c.min_x_px - mx
             && fx <= c.max_x_px + mx
-            && fy >= c.min_y_px - my
+            && fy >= c.min_y_px - config.box_margin_top_px
             && fy <= c.max_y_px + my
             && expands_within_reach(c, config.expansion_margin)
     };

@@ -260,6 +260,11 @@ impl Pipeline {
         self.config.max_vectors = max_vectors.max(1);
     }
 
+    /// Bounds the plane fits per window (load shedding).
+    pub fn set_max_fits(&mut self, max_fits: usize) {
+        self.config.flow.max_fits_per_window = max_fits.max(1);
+    }
+
     /// Forgets all state, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
         self.flow.reset();
@@ -287,7 +292,11 @@ impl Pipeline {
         };
 
         self.fresh.clear();
-        self.flow.process(events, &mut self.fresh);
+        self.flow.process_window(
+            events,
+            self.config.flow.max_fits_per_window,
+            &mut self.fresh,
+        );
         let flow_stats = self.flow.take_stats();
         timings.flow_ns = lap(clock);
 

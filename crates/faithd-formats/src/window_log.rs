@@ -14,6 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use faithd_core::decide::Decision;
+use faithd_core::flow::FlowConfig;
 use faithd_core::foe::{FaithConfig, FoeEstimate};
 use faithd_core::pipeline::{PipelineConfig, WindowReport};
 
@@ -22,7 +23,7 @@ use faithd_core::pipeline::{PipelineConfig, WindowReport};
 /// 2: FAITH's speed fit (`pipeline.faith.speed_*`). A version-1 header has no such
 /// keys, and reading it with today's defaults would switch on a step its flight never
 /// ran; [`WindowLogHeader::pipeline_as_run`] turns it off instead.
-pub const WINDOW_LOG_VERSION: u32 = 2;
+pub const WINDOW_LOG_VERSION: u32 = 3;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -49,15 +50,25 @@ impl WindowLogHeader {
     /// The pipeline configuration the flight ran with, or why this faithd cannot
     /// read it.
     pub fn pipeline_as_run(&self) -> Result<PipelineConfig, String> {
+        // Version 2 predates the fit cap: every event of a window was fitted.
+        let uncapped = |p: PipelineConfig| PipelineConfig {
+            flow: FlowConfig {
+                max_fits_per_window: 1_000_000,
+                ..p.flow
+            },
+            ..p
+        };
         match self.faithd_window_log {
             WINDOW_LOG_VERSION => Ok(self.pipeline),
-            1 => Ok(PipelineConfig {
+            2 => Ok(uncapped(self.pipeline)),
+            // Version 1 also predates FAITH's speed fit.
+            1 => Ok(uncapped(PipelineConfig {
                 faith: FaithConfig {
                     speed_radius_px: 0.0,
                     ..self.pipeline.faith
                 },
                 ..self.pipeline
-            }),
+            })),
             v => Err(format!(
                 "window log version {v} (this faithd reads 1 to {WINDOW_LOG_VERSION})"
             )),
@@ -73,6 +84,7 @@ pub struct WindowLogLine<'a> {
     /// Load-shedding settings in force for this window.
     pub max_vectors: usize,
     pub foe_iterations: u32,
+    pub max_fits: usize,
 }
 
 /// What a replay needs from a recorded line to rerun its window; the rest of the line
@@ -83,6 +95,10 @@ pub struct RecordedWindow {
     pub events: usize,
     pub max_vectors: usize,
     pub foe_iterations: u32,
+    /// The fit cap in force; absent from logs written before there was one (their
+    /// windows fitted every event).
+    #[serde(default)]
+    pub max_fits: Option<usize>,
 }
 
 /// One decision window, as printed.

@@ -61,6 +61,14 @@ pub struct FlowConfig {
     pub min_speed_px_s: f64,
     /// Flow faster than this is rejected (steep fits from simultaneous events).
     pub max_speed_px_s: f64,
+    /// At most this many events of a window get a plane fit; in a busier window every
+    /// k-th event is fitted (k the smallest that keeps within the cap) and the others
+    /// only update the surface. Fits are the flow's cost, and an obstacle filling the
+    /// view can bring 50 times a window's usual events: uncapped, that window would
+    /// take tens of milliseconds exactly when the decision matters. The history keeps
+    /// at most `pipeline.max_vectors` vectors anyway, so fitting them all would mostly
+    /// push out older vectors. Load shedding lowers the cap further.
+    pub max_fits_per_window: usize,
 }
 
 impl Default for FlowConfig {
@@ -76,6 +84,7 @@ impl Default for FlowConfig {
             max_gradient_rel_error: 0.25,
             min_speed_px_s: 2.0,
             max_speed_px_s: 5_000.0,
+            max_fits_per_window: 2_000,
         }
     }
 }
@@ -110,6 +119,11 @@ impl FlowConfig {
         positive(f.max_rms_us, "pipeline.flow.max_rms_us")?;
         positive(f.min_speed_px_s, "pipeline.flow.min_speed_px_s")?;
         positive(f.max_speed_px_s, "pipeline.flow.max_speed_px_s")?;
+        check(
+            (1..=1_000_000).contains(&f.max_fits_per_window),
+            "pipeline.flow.max_fits_per_window",
+            || format!("must be 1 to 1000000, got {}", f.max_fits_per_window),
+        )?;
         check(
             f.min_speed_px_s < f.max_speed_px_s,
             "pipeline.flow.max_speed_px_s",
@@ -147,6 +161,9 @@ pub struct FlowStats {
     pub not_tight: u64,
     pub speed_rejected: u64,
     pub vectors: u64,
+    /// Events that only updated the surface (in view, not refractory): the window
+    /// had more events than fits.
+    pub not_fitted: u64,
 }
 
 /// Streaming normal flow: feed events in time order, collect vectors.
@@ -187,6 +204,43 @@ impl NormalFlow {
                 out.push(v);
             }
         }
+    }
+
+    /// Processes one window's events with at most `max_fits` plane fits: every k-th
+    /// event is fitted, k the smallest stride that keeps within the cap, and every
+    /// event updates the surface. The same events give the same vectors.
+    pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
+        let stride = events.len().div_ceil(max_fits.max(1)).max(1);
+        if stride == 1 {
+            return self.process(events, out);
+        }
+        for (i, e) in events.iter().enumerate() {
+            if i % stride == 0 {
+                if let Some(v) = self.process_event(e) {
+                    out.push(v);
+                }
+            } else {
+                self.update_surface(e);
+            }
+        }
+    }
+
+    /// An event that is not fitted still marks its pixel, for its neighbours' fits.
+    fn update_surface(&mut self, e: &Event) {
+        self.stats.events += 1;
+        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
+        if x >= self.surface.width_px() || y >= self.surface.height_px() {
+            self.stats.out_of_view += 1;
+            return;
+        }
+        let previous_us = self.surface.get(x, y, e.polarity);
+        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
+        {
+            self.stats.refractory += 1;
+            return;
+        }
+        self.surface.set(x, y, e.polarity, e.t_us);
+        self.stats.not_fitted += 1;
     }
 
     /// One event: update the surface, then try a plane fit around it.
