@@ -133,6 +133,7 @@ pub fn dbscan_brute_force(points: &[[f64; 3]], config: &DbscanConfig) -> Vec<Opt
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cluster::dense_grid::DenseGrid;
     use proptest::prelude::*;
 
     fn blob(cx: f64, cy: f64, cz: f64, n: usize, spread: f64) -> Vec<[f64; 3]> {
@@ -242,6 +243,109 @@ mod tests {
         assert_eq!(labels, dbscan_brute_force(&pts, &DbscanConfig::default()));
     }
 
+    /// Features shaped like the pipeline's (the cluster bench's generator): dense
+    /// groups at different TTC z-scores over a sparse background with a long tail.
+    fn pipeline_shaped(n: usize, seed: u64) -> Vec<[f64; 3]> {
+        let mut s = seed;
+        let mut rnd = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|k| match k % 10 {
+                0..=2 => [0.48 + 0.08 * rnd(), rnd(), -1.6 + 0.25 * rnd()],
+                3 => [0.15 + 0.2 * rnd(), 0.6 + 0.3 * rnd(), -2.4 + 0.3 * rnd()],
+                4..=7 => [rnd(), rnd(), 0.2 + 0.9 * rnd()],
+                _ => [rnd(), rnd(), -3.0 + 9.0 * rnd() * rnd()],
+            })
+            .collect()
+    }
+
+    /// Runs the dense grid alone; `None` when it declines the input.
+    fn dense_only(pts: &[[f64; 3]], config: &DbscanConfig) -> Option<Vec<Option<u32>>> {
+        let mut labels = vec![None; pts.len()];
+        DenseGrid::default()
+            .run(pts, config.eps, config.min_points.max(1), &mut labels)
+            .map(|_| labels)
+    }
+
+    #[test]
+    fn pipeline_shaped_features_match_brute_force() {
+        for (n, seed, eps, min_points) in [
+            (3000, 1, 0.2, 20),
+            (2000, 2, 0.2, 20),
+            (1500, 3, 0.1, 8),
+            (1500, 4, 0.35, 40),
+            (800, 5, 0.2, 1),
+        ] {
+            let pts = pipeline_shaped(n, seed);
+            let config = DbscanConfig { eps, min_points };
+            let reference = dbscan_brute_force(&pts, &config);
+            assert_eq!(
+                dense_only(&pts, &config).as_ref(),
+                Some(&reference),
+                "{n} {seed}"
+            );
+            let mut labels = Vec::new();
+            let clusters = Dbscan::new(config).run(&pts, &mut labels);
+            assert_eq!(labels, reference);
+            let most = reference
+                .iter()
+                .flatten()
+                .max()
+                .map_or(0, |&c| c as usize + 1);
+            assert_eq!(clusters, most);
+        }
+    }
+
+    /// Wide inputs go to the sparse grid (and still match); a few far layers do not.
+    #[test]
+    fn wide_inputs_fall_back_to_the_sparse_grid() {
+        let config = DbscanConfig::default();
+        let mut pts = pipeline_shaped(300, 7);
+        // A far point: TTC z-scores of a few outliers reach hundreds of eps, which the
+        // compression of empty layers absorbs.
+        pts.push([0.5, 0.5, 5000.0]);
+        pts.extend((0..25).map(|k| [0.5, 0.5, 5000.0 + 0.001 * f64::from(k)]));
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config).as_ref(), Some(&reference));
+        // Beyond a million cells along an axis: declined, and the facade still matches.
+        pts.push([1e7, 0.0, 0.0]);
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config), None);
+        let mut labels = Vec::new();
+        Dbscan::new(config).run(&pts, &mut labels);
+        assert_eq!(labels, reference);
+        // An eps whose square leaves the normal range is declined too.
+        let tiny = DbscanConfig {
+            eps: 1e-200,
+            min_points: 2,
+        };
+        let same = [[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.5]];
+        assert_eq!(dense_only(&same, &tiny), None);
+        Dbscan::new(tiny).run(&same, &mut labels);
+        assert_eq!(labels, dbscan_brute_force(&same, &tiny));
+        assert_eq!(labels, vec![Some(0), Some(0), None]);
+    }
+
+    #[test]
+    fn non_finite_points_are_noise_in_the_dense_grid() {
+        let config = DbscanConfig {
+            eps: 0.2,
+            min_points: 3,
+        };
+        let mut pts = pipeline_shaped(200, 8);
+        pts[3] = [f64::NAN, 0.1, 0.1];
+        pts[50] = [0.1, f64::INFINITY, 0.1];
+        pts[77] = [0.1, 0.1, f64::NEG_INFINITY];
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config).as_ref(), Some(&reference));
+        let all_nan = vec![[f64::NAN; 3]; 5];
+        assert_eq!(dense_only(&all_nan, &config), Some(vec![None; 5]));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Points on a lattice put many pairs at exactly eps and on cell boundaries,
@@ -273,6 +377,41 @@ mod tests {
             let mut labels = Vec::new();
             Dbscan::new(config).run(&pts, &mut labels);
             prop_assert_eq!(labels, dbscan_brute_force(&pts, &config));
+        }
+
+        /// Clustered points (dense blobs, duplicates, thin sheets) where cells fill up,
+        /// through the dense grid alone.
+        #[test]
+        fn dense_grid_matches_brute_force_on_clustered_points(
+            blobs in prop::collection::vec(
+                ((0.0..1.0f64, 0.0..1.0f64, -2.0..2.0f64), 0.0..0.3f64, 1usize..120),
+                1..6,
+            ),
+            seed in 0u64..1000,
+            eps in 0.05..0.4f64,
+            min_points in 1usize..30,
+        ) {
+            let mut s = seed;
+            let mut rnd = move || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            };
+            let mut pts = Vec::new();
+            for ((x, y, z), spread, count) in blobs {
+                for k in 0..count {
+                    // Every seventh point repeats the last one; every fifth is flat in z.
+                    let p = if k % 7 == 6 && !pts.is_empty() {
+                        pts[pts.len() - 1]
+                    } else {
+                        let dz = if k % 5 == 0 { 0.0 } else { spread * rnd() };
+                        [x + spread * rnd(), y + spread * rnd(), z + dz]
+                    };
+                    pts.push(p);
+                }
+            }
+            let config = DbscanConfig { eps, min_points };
+            let reference = dbscan_brute_force(&pts, &config);
+            prop_assert_eq!(dense_only(&pts, &config), Some(reference));
         }
     }
 }

@@ -88,7 +88,7 @@ fn count_within(xs: &[f64], ys: &[f64], zs: &[f64], p: [f64; 3], eps2: f64) -> u
 }
 
 /// Points whose core tests share one walk over the cells around theirs.
-const GROUP: usize = 4;
+const GROUP: usize = 2;
 
 /// For each point of `ps`, the number of points of the slices within `eps2` of it,
 /// computed as `dist2` computes it; each point of the slices is loaded once for all.
@@ -234,7 +234,8 @@ impl DenseGrid {
         let mut dims = [0u32; 3];
         for k in 0..3 {
             // NaN (an infinite extent) fails the comparison too.
-            if !((hi[k] - lo[k]) * inv_side < MAX_AXIS_CELLS) {
+            let extent_cells = (hi[k] - lo[k]) * inv_side;
+            if extent_cells.is_nan() || extent_cells >= MAX_AXIS_CELLS {
                 return Cells::TooWide;
             }
             let mut axis = std::mem::take(&mut self.axis[k]);
@@ -454,7 +455,10 @@ impl DenseGrid {
             let mut core = 0;
             for group in (begin..end).step_by(GROUP) {
                 let group = group..(group + GROUP).min(end);
-                for (pos, is_core) in group.clone().zip(self.core_group(c, group, eps2, min_points)) {
+                for (pos, is_core) in group
+                    .clone()
+                    .zip(self.core_group(c, group, eps2, min_points))
+                {
                     if is_core {
                         self.core_point[self.index[pos] as usize] = true;
                         core += 1;
@@ -503,8 +507,8 @@ impl DenseGrid {
                 continue;
             }
             let middle = c.wrapping_add_signed(r.middle);
-            let points =
-                self.first(middle.wrapping_add_signed(lo))..self.first(middle.wrapping_add_signed(hi + 1));
+            let points = self.first(middle.wrapping_add_signed(lo))
+                ..self.first(middle.wrapping_add_signed(hi + 1));
             let found = count_within_group(
                 &self.xs[points.clone()],
                 &self.ys[points.clone()],
@@ -664,7 +668,7 @@ impl DenseGrid {
         self.cluster.clear();
         self.cluster.resize(m, NONE);
         let mut clusters = 0;
-        for i in 0..self.core_point.len() {
+        for (i, label) in labels.iter_mut().enumerate() {
             if !self.core_point[i] {
                 continue;
             }
@@ -674,7 +678,7 @@ impl DenseGrid {
                 self.cluster[root] = clusters;
                 clusters += 1;
             }
-            labels[i] = Some(self.cluster[root]);
+            *label = Some(self.cluster[root]);
         }
         for k in 0..m {
             if self.core_count[k] > 0 {
