@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::invalid::{Invalid, check, non_negative, positive};
 
 use super::polygon::{ConvexPolygon, HalfPlane};
-use super::speed_fit::{SpeedFit, SpeedFitConfig};
+use super::speed_fit::{SpeedFit, SpeedFitConfig, UnitFlow};
 use super::{FoeEstimate, FoeEstimator};
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
@@ -230,6 +230,9 @@ pub struct Faith {
     /// Boundaries crossing the plateau grid, as (crossing column, change per row).
     rightward: Vec<(f64, f64)>,
     leftward: Vec<(f64, f64)>,
+    /// The usable vectors of the window, normalised once for the half-planes and the
+    /// speed fit.
+    unit: UnitFlow,
     speed_fit: SpeedFit,
 }
 
@@ -247,6 +250,7 @@ impl Faith {
             grid: Vec::new(),
             rightward: Vec::new(),
             leftward: Vec::new(),
+            unit: UnitFlow::default(),
             speed_fit: SpeedFit::new(),
         }
     }
@@ -260,17 +264,22 @@ impl Faith {
         self.config.iterations = iterations;
     }
 
+    /// The half-planes behind the usable vectors (`HalfPlane::behind`, whose tests and
+    /// arithmetic `UnitFlow::load` shares), in single precision.
     fn load_half_planes(&mut self, flow: &[FlowVector]) {
+        self.unit.load(flow);
+        let u = &self.unit;
         self.nx.clear();
+        self.nx.extend(u.nx.iter().map(|&v| v as f32));
         self.ny.clear();
+        self.ny.extend(u.ny.iter().map(|&v| v as f32));
         self.c.clear();
-        for f in flow {
-            if let Some(h) = HalfPlane::behind(f.x_px, f.y_px, f.u_px_s, f.v_px_s) {
-                self.nx.push(h.nx as f32);
-                self.ny.push(h.ny as f32);
-                self.c.push(h.c as f32);
-            }
-        }
+        self.c.extend(
+            u.nx.iter()
+                .zip(&u.ny)
+                .zip(u.x_px.iter().zip(&u.y_px))
+                .map(|((&nx, &ny), (&x, &y))| (nx * x + ny * y) as f32),
+        );
     }
 
     fn half_plane(&self, i: usize) -> HalfPlane {
@@ -466,24 +475,51 @@ impl Faith {
             }
         }
         let top = side as f64 + 1.0;
-        for j in 0..side {
-            let row = &mut self.grid[j * stride..(j + 1) * stride];
-            let jf = j as f64;
-            // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps
-            // the truncating cast a floor (a libm floor call would dominate here).
-            for &(x, step) in &self.rightward {
-                let xc = (x + jf * step).clamp(-1.0, top);
-                row[((xc + 1.0) as usize).min(side)] += 1;
+        let last_row = (side - 1) as f64;
+        // Line by line, each over all rows: consecutive updates then go to different
+        // rows, where row by row many lines clamp to the same slot and their
+        // increments would wait on one another. A line's column is monotonic in the
+        // row (each step of the arithmetic is), so when its first and last rows agree
+        // on "no cell violated" or "every cell violated", so do all rows between: such
+        // a line adds the same to every cell, which moves neither the plateau nor its
+        // centroid, and is left out.
+        //
+        // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps the
+        // truncating cast a floor (a libm floor call would dominate here).
+        for &(x, step) in &self.rightward {
+            let column =
+                |jf: f64| (((x + jf * step).clamp(-1.0, top) + 1.0) as i32 as usize).min(side);
+            let (first, last) = (column(0.0), column(last_row));
+            if first == last && (first == 0 || first == side) {
+                continue;
             }
-            // Violated left of it: the whole row minus the cells from ceil(x) on,
-            // with ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
-            let mut whole = 0;
-            for &(x, step) in &self.leftward {
+            let mut jf = 0.0;
+            for j in 0..side {
+                self.grid[j * stride + column(jf)] += 1;
+                jf += 1.0;
+            }
+        }
+        // Violated left of it: the whole row minus the cells from ceil(x) on, with
+        // ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
+        let mut whole = 0;
+        for &(x, step) in &self.leftward {
+            let column = |jf: f64| {
                 let xc = (x + jf * step).clamp(0.0, top);
-                row[(side + 1 - ((top - xc) as usize)).min(side)] -= 1;
-                whole += 1;
+                (side + 1 - ((top - xc) as i32 as usize)).min(side)
+            };
+            let (first, last) = (column(0.0), column(last_row));
+            if first == last && (first == 0 || first == side) {
+                continue;
             }
-            row[whole_row] += whole;
+            let mut jf = 0.0;
+            for j in 0..side {
+                self.grid[j * stride + column(jf)] -= 1;
+                jf += 1.0;
+            }
+            whole += 1;
+        }
+        for j in 0..side {
+            self.grid[j * stride + whole_row] += whole;
         }
         let mut least = i32::MAX;
         for j in 0..side {
@@ -625,7 +661,7 @@ impl FoeEstimator for Faith {
         let speed_config = self.config.speed_fit();
         if let Some(p) = self
             .speed_fit
-            .refine(flow, (x, y), sensor_px, &speed_config)
+            .refine_unit(&self.unit, (x, y), sensor_px, &speed_config)
         {
             (x, y) = p;
             moved = true;
