@@ -221,6 +221,8 @@ pub struct Faith {
     nx: Vec<f32>,
     ny: Vec<f32>,
     c: Vec<f32>,
+    /// `c` plus the inlier tolerance, as the score compares with it.
+    c_tol: Vec<f32>,
     area: ConvexPolygon,
     cut: ConvexPolygon,
     scratch: ConvexPolygon,
@@ -244,6 +246,7 @@ impl Faith {
             nx: Vec::new(),
             ny: Vec::new(),
             c: Vec::new(),
+            c_tol: Vec::new(),
             area: ConvexPolygon::with_capacity(64),
             cut: ConvexPolygon::with_capacity(64),
             scratch: ConvexPolygon::with_capacity(64),
@@ -280,6 +283,9 @@ impl Faith {
                 .zip(u.x_px.iter().zip(&u.y_px))
                 .map(|((&nx, &ny), (&x, &y))| (nx * x + ny * y) as f32),
         );
+        let tol = self.config.inlier_tolerance_px as f32;
+        self.c_tol.clear();
+        self.c_tol.extend(self.c.iter().map(|&c| c + tol));
     }
 
     fn half_plane(&self, i: usize) -> HalfPlane {
@@ -292,15 +298,34 @@ impl Faith {
 
     /// Number of half-planes containing the point: the iteration score.
     fn score(&self, x: f64, y: f64) -> usize {
+        self.score_above(x, y, 0)
+    }
+
+    /// The score of `(x, y)` if it is above `beat`; otherwise some number not above
+    /// `beat`: the count stops once the half-planes left could no longer lift it past.
+    /// With `beat` 0 the count is always complete.
+    fn score_above(&self, x: f64, y: f64, beat: usize) -> usize {
+        /// Half-planes counted between checks: long enough to run vectorised.
+        const CHUNK: usize = 128;
         let n = self.nx.len();
-        let (nx, ny, c) = (&self.nx[..n], &self.ny[..n], &self.c[..n]);
-        let (x, y, tol) = (x as f32, y as f32, self.config.inlier_tolerance_px as f32);
-        // Branch-free so it vectorises.
-        let mut count = 0u32;
-        for i in 0..n {
-            count += u32::from(nx[i] * x + ny[i] * y <= c[i] + tol);
+        let (nx, ny, c) = (&self.nx[..n], &self.ny[..n], &self.c_tol[..n]);
+        let (x, y) = (x as f32, y as f32);
+        let mut count = 0;
+        let mut start = 0;
+        while start < n {
+            let end = (start + CHUNK).min(n);
+            // Branch-free so it vectorises.
+            let mut inside = 0u32;
+            for i in start..end {
+                inside += u32::from(nx[i] * x + ny[i] * y <= c[i]);
+            }
+            count += inside as usize;
+            start = end;
+            if count + (n - start) <= beat {
+                return count + (n - start);
+            }
         }
-        count as usize
+        count
     }
 
     fn set_box(&mut self, margin_px: f64) {
@@ -599,7 +624,7 @@ impl FoeEstimator for Faith {
             let Some((x, y)) = self.grow_candidate(&mut rng) else {
                 continue;
             };
-            let score = self.score(x, y);
+            let score = self.score_above(x, y, best.map_or(0, |(s, _)| s));
             if best.is_none_or(|(s, _)| score > s) {
                 best = Some((score, (x, y)));
             }
