@@ -223,6 +223,9 @@ pub struct Faith {
     c: Vec<f32>,
     /// `c` plus the inlier tolerance, as the score compares with it.
     c_tol: Vec<f32>,
+    /// Excess of every half-plane at one point, and of a block of them at another.
+    excess_buffer: Vec<f64>,
+    excess_block: Vec<f64>,
     area: ConvexPolygon,
     cut: ConvexPolygon,
     scratch: ConvexPolygon,
@@ -247,6 +250,8 @@ impl Faith {
             ny: Vec::new(),
             c: Vec::new(),
             c_tol: Vec::new(),
+            excess_buffer: Vec::new(),
+            excess_block: Vec::new(),
             area: ConvexPolygon::with_capacity(64),
             cut: ConvexPolygon::with_capacity(64),
             scratch: ConvexPolygon::with_capacity(64),
@@ -370,6 +375,11 @@ impl Faith {
         for _ in 0..self.config.max_cuts_per_iteration {
             let k = rng.random_range(0..n);
             let h = self.half_plane(k);
+            // A half-plane holding the whole area leaves it as it is: the area test
+            // below would stop here, so stop without clipping.
+            if self.area.inside(&h) {
+                break;
+            }
             self.area.clip_into(&h, &mut self.cut);
             let new_area_px2 = self.cut.area();
             if self.cut.is_empty() || new_area_px2 >= area_px2 * (1.0 - 1e-12) {
@@ -385,13 +395,16 @@ impl Faith {
     fn refine_over_inliers(&mut self, x: f64, y: f64) {
         let c_tol = self.config.inlier_tolerance_px;
         self.set_box(self.config.unbounded_margin_px);
+        let n = self.nx.len();
+        // Every half-plane's excess at the winner, once, in a loop that vectorises.
+        let mut at_winner = std::mem::take(&mut self.excess_buffer);
+        self.excess_at(x, y, 0..n, &mut at_winner);
         // Cut first with the inliers whose boundary passes closest to the winner: they
         // shrink the area at once, after which almost every other half-plane contains
         // the whole area and is dismissed by a bounding-circle test in O(1).
         const FIRST_CUTS: usize = 16;
         let mut closest = [(f64::INFINITY, 0usize); FIRST_CUTS];
-        for i in 0..self.nx.len() {
-            let e = self.half_plane(i).excess(x, y);
+        for (i, &e) in at_winner.iter().enumerate() {
             if e <= c_tol && -e < closest[FIRST_CUTS - 1].0 {
                 closest[FIRST_CUTS - 1] = (-e, i);
                 closest.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
@@ -402,16 +415,46 @@ impl Faith {
                 self.cut_area_with_tolerance(i, c_tol);
             }
         }
+        // The circle test a block at a time (vectorised), until a cut moves the circle:
+        // then again from the next half-plane, with the new circle.
+        const BLOCK: usize = 64;
+        let mut at_centre = std::mem::take(&mut self.excess_block);
         let (mut cx, mut cy, mut radius) = self.area_circle();
-        for i in 0..self.nx.len() {
-            let h = self.half_plane(i);
-            if h.excess(x, y) > c_tol || h.excess(cx, cy) + radius <= c_tol {
-                continue;
+        let mut start = 0;
+        while start < n {
+            let end = (start + BLOCK).min(n);
+            self.excess_at(cx, cy, start..end, &mut at_centre);
+            let mut next = end;
+            for i in start..end {
+                if at_winner[i] > c_tol || at_centre[i - start] + radius <= c_tol {
+                    continue;
+                }
+                if self.cut_area_with_tolerance(i, c_tol) {
+                    (cx, cy, radius) = self.area_circle();
+                    next = i + 1;
+                    break;
+                }
             }
-            if self.cut_area_with_tolerance(i, c_tol) {
-                (cx, cy, radius) = self.area_circle();
-            }
+            start = next;
         }
+        self.excess_buffer = at_winner;
+        self.excess_block = at_centre;
+    }
+
+    /// `HalfPlane::excess` at `(x, y)` of the half-planes `range`, into `out`.
+    fn excess_at(&self, x: f64, y: f64, range: std::ops::Range<usize>, out: &mut Vec<f64>) {
+        out.clear();
+        let (nx, ny, c) = (
+            &self.nx[range.clone()],
+            &self.ny[range.clone()],
+            &self.c[range],
+        );
+        out.extend(
+            nx.iter()
+                .zip(ny)
+                .zip(c)
+                .map(|((&nx, &ny), &c)| f64::from(nx) * x + f64::from(ny) * y - f64::from(c)),
+        );
     }
 
     /// Cuts the area by half-plane `i` widened by `tol`; true when the area changed.
@@ -511,6 +554,7 @@ impl Faith {
         //
         // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps the
         // truncating cast a floor (a libm floor call would dominate here).
+        let grid = &mut self.grid[..side * stride];
         for &(x, step) in &self.rightward {
             let column =
                 |jf: f64| (((x + jf * step).clamp(-1.0, top) + 1.0) as i32 as usize).min(side);
@@ -519,8 +563,8 @@ impl Faith {
                 continue;
             }
             let mut jf = 0.0;
-            for j in 0..side {
-                self.grid[j * stride + column(jf)] += 1;
+            for row in grid.chunks_exact_mut(stride) {
+                row[column(jf)] += 1;
                 jf += 1.0;
             }
         }
@@ -537,8 +581,8 @@ impl Faith {
                 continue;
             }
             let mut jf = 0.0;
-            for j in 0..side {
-                self.grid[j * stride + column(jf)] -= 1;
+            for row in grid.chunks_exact_mut(stride) {
+                row[column(jf)] -= 1;
                 jf += 1.0;
             }
             whole += 1;

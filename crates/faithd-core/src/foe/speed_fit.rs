@@ -148,54 +148,24 @@ pub(crate) struct UnitFlow {
 
 impl UnitFlow {
     /// Keeps the vectors with a finite origin and a finite, non-zero speed.
-    ///
-    /// Two passes: the square roots and divisions for every vector (a loop that
-    /// vectorises), then a branch-free compaction of the usable ones.
     pub fn load(&mut self, flow: &[FlowVector]) {
-        let n = flow.len();
-        for v in [
-            &mut self.x_px,
-            &mut self.y_px,
-            &mut self.nx,
-            &mut self.ny,
-            &mut self.speed_px_s,
-        ] {
-            v.clear();
-            v.resize(n, 0.0);
-        }
-        let (nx, ny, speed) = (
-            &mut self.nx[..n],
-            &mut self.ny[..n],
-            &mut self.speed_px_s[..n],
-        );
-        for i in 0..n {
-            let f = &flow[i];
+        self.x_px.clear();
+        self.y_px.clear();
+        self.nx.clear();
+        self.ny.clear();
+        self.speed_px_s.clear();
+        for f in flow {
             // sqrt rather than hypot: the flow is finite and far from overflow, and
             // hypot's care costs more than the rest of this loop.
-            speed[i] = (f.u_px_s * f.u_px_s + f.v_px_s * f.v_px_s).sqrt();
-            nx[i] = f.u_px_s / speed[i];
-            ny[i] = f.v_px_s / speed[i];
-        }
-        let mut kept = 0;
-        for (i, f) in flow.iter().enumerate() {
-            let s = self.speed_px_s[i];
-            let usable = s > 0.0 && s.is_finite() && f.x_px.is_finite() && f.y_px.is_finite();
-            // Written in any case, kept only when usable (kept <= i).
-            self.x_px[kept] = f.x_px;
-            self.y_px[kept] = f.y_px;
-            self.nx[kept] = self.nx[i];
-            self.ny[kept] = self.ny[i];
-            self.speed_px_s[kept] = s;
-            kept += usize::from(usable);
-        }
-        for v in [
-            &mut self.x_px,
-            &mut self.y_px,
-            &mut self.nx,
-            &mut self.ny,
-            &mut self.speed_px_s,
-        ] {
-            v.truncate(kept);
+            let speed = (f.u_px_s * f.u_px_s + f.v_px_s * f.v_px_s).sqrt();
+            if !(speed > 0.0 && speed.is_finite() && f.x_px.is_finite() && f.y_px.is_finite()) {
+                continue;
+            }
+            self.x_px.push(f.x_px);
+            self.y_px.push(f.y_px);
+            self.nx.push(f.u_px_s / speed);
+            self.ny.push(f.v_px_s / speed);
+            self.speed_px_s.push(speed);
         }
     }
 
