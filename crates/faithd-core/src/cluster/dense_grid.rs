@@ -553,8 +553,8 @@ impl DenseGrid {
         begin..begin + self.core_count[k] as usize
     }
 
-    /// Is core point `pos` within eps of a core point of occupied cell `j`, `d` cells
-    /// away from its own?
+    /// Is sorted point `pos` within eps of a core point of occupied cell `j`, `d` cells
+    /// away from its own? Cells whose box is out of reach are not scanned.
     fn touches(&self, pos: usize, j: usize, d: [i8; 3], eps2: f64) -> bool {
         let f = self.fracs[pos];
         let gap2 = |frac: f64, d: i8| {
