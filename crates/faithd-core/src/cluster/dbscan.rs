@@ -1,10 +1,13 @@
 //! DBSCAN (Ester 1996) with a uniform grid index.
 //!
-//! Cells have side eps, so every neighbour of a point lies in its own cell or one of
-//! the 26 around it. Points are sorted by cell once per call and cells are found by
-//! binary search, which needs no bound on the (unbounded) TTC axis and no hashing.
+//! Two grids give the same labels as the textbook algorithm: a dense one with cells of
+//! eps / sqrt(3) (`dense_grid.rs`, every input of the pipeline) and a sparse one with
+//! cells of eps (`sorted_grid.rs`, for points spread too widely for a dense array).
 
 use serde::{Deserialize, Serialize};
+
+use super::dense_grid::DenseGrid;
+use super::sorted_grid::SortedGrid;
 
 use crate::invalid::{Invalid, check, positive};
 
@@ -38,158 +41,23 @@ impl DbscanConfig {
     }
 }
 
-type CellKey = (i32, i32, i32);
-
 /// DBSCAN with reusable buffers: no allocation per call once warmed up.
 ///
-/// Two observations keep dense windows cheap without changing a single label: the
-/// core test only needs to count up to min_points, and a cluster's expansion only
-/// needs to look at cells that still hold unlabelled points.
+/// The labels are exactly those of Ester's expansion in point order
+/// ([`dbscan_brute_force`]); see `dense_grid.rs` for how they are found without it.
 pub struct Dbscan {
     config: DbscanConfig,
-    /// (cell, point index), sorted.
-    entries: Vec<(CellKey, u32)>,
-    /// Coordinates in cell order, so a cell's points are scanned contiguously.
-    sorted: Vec<[f64; 3]>,
-    /// Distinct cells with their range in `entries`.
-    cells: Vec<(CellKey, u32, u32)>,
-    /// For each cell, the range of its neighbour cells (itself included) in `adjacent`.
-    adjacent_range: Vec<(u32, u32)>,
-    adjacent: Vec<u32>,
-    /// Cell of each point (by point index); u32::MAX for a non-finite point.
-    cell_of_point: Vec<u32>,
-    /// Points of each cell still without a label.
-    unlabelled: Vec<u32>,
-    visited: Vec<bool>,
-    stack: Vec<u32>,
+    dense: DenseGrid,
+    /// For inputs the dense grid declines (points spread over millions of cells).
+    sparse: SortedGrid,
 }
 
 impl Dbscan {
     pub fn new(config: DbscanConfig) -> Self {
         Self {
             config,
-            entries: Vec::new(),
-            sorted: Vec::new(),
-            cells: Vec::new(),
-            adjacent_range: Vec::new(),
-            adjacent: Vec::new(),
-            cell_of_point: Vec::new(),
-            unlabelled: Vec::new(),
-            visited: Vec::new(),
-            stack: Vec::new(),
-        }
-    }
-
-    /// Grid cell of a point; `None` only for a non-finite coordinate.
-    ///
-    /// Cells are a hair wider than eps so that rounding in the division can never put
-    /// two points within eps of each other two cells apart. Coordinates beyond the i32
-    /// range are clamped: that can only merge far-apart cells, never split neighbours,
-    /// so the labels still equal the brute-force reference.
-    fn cell_of(&self, p: &[f64; 3]) -> Option<CellKey> {
-        let side = self.config.eps.max(f64::MIN_POSITIVE) * (1.0 + 1e-9);
-        let k = |v: f64| {
-            v.is_finite()
-                .then(|| (v / side).floor().clamp(-1e9, 1e9) as i32)
-        };
-        Some((k(p[0])?, k(p[1])?, k(p[2])?))
-    }
-
-    fn build_index(&mut self, points: &[[f64; 3]]) {
-        self.entries.clear();
-        for (i, p) in points.iter().enumerate() {
-            if let Some(key) = self.cell_of(p) {
-                self.entries.push((key, i as u32));
-            }
-        }
-        self.entries.sort_unstable();
-        self.sorted.clear();
-        self.sorted
-            .extend(self.entries.iter().map(|&(_, i)| points[i as usize]));
-        self.cell_of_point.clear();
-        self.cell_of_point.resize(points.len(), u32::MAX);
-        self.cells.clear();
-        let mut start = 0;
-        while start < self.entries.len() {
-            let key = self.entries[start].0;
-            let mut end = start + 1;
-            while end < self.entries.len() && self.entries[end].0 == key {
-                end += 1;
-            }
-            for &(_, i) in &self.entries[start..end] {
-                self.cell_of_point[i as usize] = self.cells.len() as u32;
-            }
-            self.cells.push((key, start as u32, end as u32));
-            start = end;
-        }
-        self.unlabelled.clear();
-        self.unlabelled
-            .extend(self.cells.iter().map(|&(_, s, e)| e - s));
-        self.adjacent.clear();
-        self.adjacent_range.clear();
-        for c in 0..self.cells.len() {
-            let (cx, cy, cz) = self.cells[c].0;
-            let first = self.adjacent.len() as u32;
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let key = (cx + dx, cy + dy, cz + dz);
-                        if let Ok(n) = self.cells.binary_search_by(|cell| cell.0.cmp(&key)) {
-                            self.adjacent.push(n as u32);
-                        }
-                    }
-                }
-            }
-            self.adjacent_range
-                .push((first, self.adjacent.len() as u32));
-        }
-    }
-
-    /// Is point `i` a core point? Counts neighbours (itself included) up to min_points.
-    fn is_core(&self, points: &[[f64; 3]], i: usize, min_points: usize) -> bool {
-        let cell = self.cell_of_point[i];
-        if cell == u32::MAX {
-            return false;
-        }
-        let p = &points[i];
-        let eps2 = self.config.eps * self.config.eps;
-        let (a, b) = self.adjacent_range[cell as usize];
-        let mut count = 0;
-        for &n in &self.adjacent[a as usize..b as usize] {
-            let (_, start, end) = self.cells[n as usize];
-            for q in &self.sorted[start as usize..end as usize] {
-                count += usize::from(dist2(p, q) <= eps2);
-            }
-            if count >= min_points {
-                return true;
-            }
-        }
-        false
-    }
-
-    /// Gives every unlabelled point within eps of core point `i` the label `id`, and
-    /// queues those not yet visited (a visited one was found not to be core).
-    fn claim(&mut self, points: &[[f64; 3]], i: usize, labels: &mut [Option<u32>], id: u32) {
-        let cell = self.cell_of_point[i];
-        let p = &points[i];
-        let eps2 = self.config.eps * self.config.eps;
-        let (a, b) = self.adjacent_range[cell as usize];
-        for k in a..b {
-            let n = self.adjacent[k as usize] as usize;
-            if self.unlabelled[n] == 0 {
-                continue;
-            }
-            let (_, start, end) = self.cells[n];
-            for e in start as usize..end as usize {
-                let r = self.entries[e].1 as usize;
-                if labels[r].is_none() && dist2(p, &self.sorted[e]) <= eps2 {
-                    labels[r] = Some(id);
-                    self.unlabelled[n] -= 1;
-                    if !self.visited[r] {
-                        self.stack.push(r as u32);
-                    }
-                }
-            }
+            dense: DenseGrid::default(),
+            sparse: SortedGrid::default(),
         }
     }
 
@@ -197,46 +65,20 @@ impl Dbscan {
     /// order of discovery) or `None` for noise. Returns the number of clusters.
     /// Points with a non-finite coordinate are noise.
     pub fn run(&mut self, points: &[[f64; 3]], labels: &mut Vec<Option<u32>>) -> usize {
-        let n = points.len();
         labels.clear();
-        labels.resize(n, None);
-        self.visited.clear();
-        self.visited.resize(n, false);
-        self.build_index(points);
-        let min_points = self.config.min_points.max(1);
-        let mut clusters = 0u32;
-        for i in 0..n {
-            if self.visited[i] {
-                continue;
-            }
-            self.visited[i] = true;
-            if !self.is_core(points, i, min_points) {
-                continue;
-            }
-            let id = clusters;
-            clusters += 1;
-            if labels[i].is_none() {
-                labels[i] = Some(id);
-                self.unlabelled[self.cell_of_point[i] as usize] -= 1;
-            }
-            self.stack.clear();
-            self.claim(points, i, labels, id);
-            while let Some(q) = self.stack.pop() {
-                let q = q as usize;
-                if self.visited[q] {
-                    continue;
-                }
-                self.visited[q] = true;
-                if self.is_core(points, q, min_points) {
-                    self.claim(points, q, labels, id);
-                }
-            }
+        labels.resize(points.len(), None);
+        let (eps, min_points) = (self.config.eps, self.config.min_points.max(1));
+        match self.dense.run(points, eps, min_points, labels) {
+            Some(clusters) => clusters,
+            None => self.sparse.run(points, eps, min_points, labels),
         }
-        clusters as usize
     }
 }
 
-fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+/// Squared distance, in this order of operations everywhere: the grids must decide
+/// "within eps" exactly as the reference does.
+#[inline]
+pub(super) fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
     dx * dx + dy * dy + dz * dz
 }
@@ -291,6 +133,7 @@ pub fn dbscan_brute_force(points: &[[f64; 3]], config: &DbscanConfig) -> Vec<Opt
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cluster::dense_grid::DenseGrid;
     use proptest::prelude::*;
 
     fn blob(cx: f64, cy: f64, cz: f64, n: usize, spread: f64) -> Vec<[f64; 3]> {
@@ -400,6 +243,109 @@ mod tests {
         assert_eq!(labels, dbscan_brute_force(&pts, &DbscanConfig::default()));
     }
 
+    /// Features shaped like the pipeline's (the cluster bench's generator): dense
+    /// groups at different TTC z-scores over a sparse background with a long tail.
+    fn pipeline_shaped(n: usize, seed: u64) -> Vec<[f64; 3]> {
+        let mut s = seed;
+        let mut rnd = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|k| match k % 10 {
+                0..=2 => [0.48 + 0.08 * rnd(), rnd(), -1.6 + 0.25 * rnd()],
+                3 => [0.15 + 0.2 * rnd(), 0.6 + 0.3 * rnd(), -2.4 + 0.3 * rnd()],
+                4..=7 => [rnd(), rnd(), 0.2 + 0.9 * rnd()],
+                _ => [rnd(), rnd(), -3.0 + 9.0 * rnd() * rnd()],
+            })
+            .collect()
+    }
+
+    /// Runs the dense grid alone; `None` when it declines the input.
+    fn dense_only(pts: &[[f64; 3]], config: &DbscanConfig) -> Option<Vec<Option<u32>>> {
+        let mut labels = vec![None; pts.len()];
+        DenseGrid::default()
+            .run(pts, config.eps, config.min_points.max(1), &mut labels)
+            .map(|_| labels)
+    }
+
+    #[test]
+    fn pipeline_shaped_features_match_brute_force() {
+        for (n, seed, eps, min_points) in [
+            (3000, 1, 0.2, 20),
+            (2000, 2, 0.2, 20),
+            (1500, 3, 0.1, 8),
+            (1500, 4, 0.35, 40),
+            (800, 5, 0.2, 1),
+        ] {
+            let pts = pipeline_shaped(n, seed);
+            let config = DbscanConfig { eps, min_points };
+            let reference = dbscan_brute_force(&pts, &config);
+            assert_eq!(
+                dense_only(&pts, &config).as_ref(),
+                Some(&reference),
+                "{n} {seed}"
+            );
+            let mut labels = Vec::new();
+            let clusters = Dbscan::new(config).run(&pts, &mut labels);
+            assert_eq!(labels, reference);
+            let most = reference
+                .iter()
+                .flatten()
+                .max()
+                .map_or(0, |&c| c as usize + 1);
+            assert_eq!(clusters, most);
+        }
+    }
+
+    /// Wide inputs go to the sparse grid (and still match); a few far layers do not.
+    #[test]
+    fn wide_inputs_fall_back_to_the_sparse_grid() {
+        let config = DbscanConfig::default();
+        let mut pts = pipeline_shaped(300, 7);
+        // A far point: TTC z-scores of a few outliers reach hundreds of eps, which the
+        // compression of empty layers absorbs.
+        pts.push([0.5, 0.5, 5000.0]);
+        pts.extend((0..25).map(|k| [0.5, 0.5, 5000.0 + 0.001 * f64::from(k)]));
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config).as_ref(), Some(&reference));
+        // Beyond a million cells along an axis: declined, and the facade still matches.
+        pts.push([1e7, 0.0, 0.0]);
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config), None);
+        let mut labels = Vec::new();
+        Dbscan::new(config).run(&pts, &mut labels);
+        assert_eq!(labels, reference);
+        // An eps whose square leaves the normal range is declined too.
+        let tiny = DbscanConfig {
+            eps: 1e-200,
+            min_points: 2,
+        };
+        let same = [[1.0, 2.0, 3.0], [1.0, 2.0, 3.0], [1.0, 2.0, 3.5]];
+        assert_eq!(dense_only(&same, &tiny), None);
+        Dbscan::new(tiny).run(&same, &mut labels);
+        assert_eq!(labels, dbscan_brute_force(&same, &tiny));
+        assert_eq!(labels, vec![Some(0), Some(0), None]);
+    }
+
+    #[test]
+    fn non_finite_points_are_noise_in_the_dense_grid() {
+        let config = DbscanConfig {
+            eps: 0.2,
+            min_points: 3,
+        };
+        let mut pts = pipeline_shaped(200, 8);
+        pts[3] = [f64::NAN, 0.1, 0.1];
+        pts[50] = [0.1, f64::INFINITY, 0.1];
+        pts[77] = [0.1, 0.1, f64::NEG_INFINITY];
+        let reference = dbscan_brute_force(&pts, &config);
+        assert_eq!(dense_only(&pts, &config).as_ref(), Some(&reference));
+        let all_nan = vec![[f64::NAN; 3]; 5];
+        assert_eq!(dense_only(&all_nan, &config), Some(vec![None; 5]));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Points on a lattice put many pairs at exactly eps and on cell boundaries,
@@ -431,6 +377,41 @@ mod tests {
             let mut labels = Vec::new();
             Dbscan::new(config).run(&pts, &mut labels);
             prop_assert_eq!(labels, dbscan_brute_force(&pts, &config));
+        }
+
+        /// Clustered points (dense blobs, duplicates, thin sheets) where cells fill up,
+        /// through the dense grid alone.
+        #[test]
+        fn dense_grid_matches_brute_force_on_clustered_points(
+            blobs in prop::collection::vec(
+                ((0.0..1.0f64, 0.0..1.0f64, -2.0..2.0f64), 0.0..0.3f64, 1usize..120),
+                1..6,
+            ),
+            seed in 0u64..1000,
+            eps in 0.05..0.4f64,
+            min_points in 1usize..30,
+        ) {
+            let mut s = seed;
+            let mut rnd = move || {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            };
+            let mut pts = Vec::new();
+            for ((x, y, z), spread, count) in blobs {
+                for k in 0..count {
+                    // Every seventh point repeats the last one; every fifth is flat in z.
+                    let p = if k % 7 == 6 && !pts.is_empty() {
+                        pts[pts.len() - 1]
+                    } else {
+                        let dz = if k % 5 == 0 { 0.0 } else { spread * rnd() };
+                        [x + spread * rnd(), y + spread * rnd(), z + dz]
+                    };
+                    pts.push(p);
+                }
+            }
+            let config = DbscanConfig { eps, min_points };
+            let reference = dbscan_brute_force(&pts, &config);
+            prop_assert_eq!(dense_only(&pts, &config), Some(reference));
         }
     }
 }

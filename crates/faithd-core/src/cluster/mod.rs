@@ -5,8 +5,10 @@
 //! group of low TTC against the background.
 
 mod dbscan;
+mod dense_grid;
 mod expansion;
 mod features;
+mod sorted_grid;
 mod stats;
 
 pub use dbscan::{Dbscan, DbscanConfig, dbscan_brute_force};

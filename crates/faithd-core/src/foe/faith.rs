@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::invalid::{Invalid, check, non_negative, positive};
 
 use super::polygon::{ConvexPolygon, HalfPlane};
-use super::speed_fit::{SpeedFit, SpeedFitConfig};
+use super::speed_fit::{SpeedFit, SpeedFitConfig, UnitFlow};
 use super::{FoeEstimate, FoeEstimator};
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
@@ -221,6 +221,11 @@ pub struct Faith {
     nx: Vec<f32>,
     ny: Vec<f32>,
     c: Vec<f32>,
+    /// `c` plus the inlier tolerance, as the score compares with it.
+    c_tol: Vec<f32>,
+    /// Excess of every half-plane at one point, and of a block of them at another.
+    excess_buffer: Vec<f64>,
+    excess_block: Vec<f64>,
     area: ConvexPolygon,
     cut: ConvexPolygon,
     scratch: ConvexPolygon,
@@ -230,6 +235,9 @@ pub struct Faith {
     /// Boundaries crossing the plateau grid, as (crossing column, change per row).
     rightward: Vec<(f64, f64)>,
     leftward: Vec<(f64, f64)>,
+    /// The usable vectors of the window, normalised once for the half-planes and the
+    /// speed fit.
+    unit: UnitFlow,
     speed_fit: SpeedFit,
 }
 
@@ -241,12 +249,16 @@ impl Faith {
             nx: Vec::new(),
             ny: Vec::new(),
             c: Vec::new(),
+            c_tol: Vec::new(),
+            excess_buffer: Vec::new(),
+            excess_block: Vec::new(),
             area: ConvexPolygon::with_capacity(64),
             cut: ConvexPolygon::with_capacity(64),
             scratch: ConvexPolygon::with_capacity(64),
             grid: Vec::new(),
             rightward: Vec::new(),
             leftward: Vec::new(),
+            unit: UnitFlow::default(),
             speed_fit: SpeedFit::new(),
         }
     }
@@ -260,17 +272,25 @@ impl Faith {
         self.config.iterations = iterations;
     }
 
+    /// The half-planes behind the usable vectors (`HalfPlane::behind`, whose tests and
+    /// arithmetic `UnitFlow::load` shares), in single precision.
     fn load_half_planes(&mut self, flow: &[FlowVector]) {
+        self.unit.load(flow);
+        let u = &self.unit;
         self.nx.clear();
+        self.nx.extend(u.nx.iter().map(|&v| v as f32));
         self.ny.clear();
+        self.ny.extend(u.ny.iter().map(|&v| v as f32));
         self.c.clear();
-        for f in flow {
-            if let Some(h) = HalfPlane::behind(f.x_px, f.y_px, f.u_px_s, f.v_px_s) {
-                self.nx.push(h.nx as f32);
-                self.ny.push(h.ny as f32);
-                self.c.push(h.c as f32);
-            }
-        }
+        self.c.extend(
+            u.nx.iter()
+                .zip(&u.ny)
+                .zip(u.x_px.iter().zip(&u.y_px))
+                .map(|((&nx, &ny), (&x, &y))| (nx * x + ny * y) as f32),
+        );
+        let tol = self.config.inlier_tolerance_px as f32;
+        self.c_tol.clear();
+        self.c_tol.extend(self.c.iter().map(|&c| c + tol));
     }
 
     fn half_plane(&self, i: usize) -> HalfPlane {
@@ -283,15 +303,34 @@ impl Faith {
 
     /// Number of half-planes containing the point: the iteration score.
     fn score(&self, x: f64, y: f64) -> usize {
+        self.score_above(x, y, 0)
+    }
+
+    /// The score of `(x, y)` if it is above `beat`; otherwise some number not above
+    /// `beat`: the count stops once the half-planes left could no longer lift it past.
+    /// With `beat` 0 the count is always complete.
+    fn score_above(&self, x: f64, y: f64, beat: usize) -> usize {
+        /// Half-planes counted between checks: long enough to run vectorised.
+        const CHUNK: usize = 128;
         let n = self.nx.len();
-        let (nx, ny, c) = (&self.nx[..n], &self.ny[..n], &self.c[..n]);
-        let (x, y, tol) = (x as f32, y as f32, self.config.inlier_tolerance_px as f32);
-        // Branch-free so it vectorises.
-        let mut count = 0u32;
-        for i in 0..n {
-            count += u32::from(nx[i] * x + ny[i] * y <= c[i] + tol);
+        let (nx, ny, c) = (&self.nx[..n], &self.ny[..n], &self.c_tol[..n]);
+        let (x, y) = (x as f32, y as f32);
+        let mut count = 0;
+        let mut start = 0;
+        while start < n {
+            let end = (start + CHUNK).min(n);
+            // Branch-free so it vectorises.
+            let mut inside = 0u32;
+            for i in start..end {
+                inside += u32::from(nx[i] * x + ny[i] * y <= c[i]);
+            }
+            count += inside as usize;
+            start = end;
+            if count + (n - start) <= beat {
+                return count + (n - start);
+            }
         }
-        count as usize
+        count
     }
 
     fn set_box(&mut self, margin_px: f64) {
@@ -336,6 +375,11 @@ impl Faith {
         for _ in 0..self.config.max_cuts_per_iteration {
             let k = rng.random_range(0..n);
             let h = self.half_plane(k);
+            // A half-plane holding the whole area leaves it as it is: the area test
+            // below would stop here, so stop without clipping.
+            if self.area.inside(&h) {
+                break;
+            }
             self.area.clip_into(&h, &mut self.cut);
             let new_area_px2 = self.cut.area();
             if self.cut.is_empty() || new_area_px2 >= area_px2 * (1.0 - 1e-12) {
@@ -351,13 +395,16 @@ impl Faith {
     fn refine_over_inliers(&mut self, x: f64, y: f64) {
         let c_tol = self.config.inlier_tolerance_px;
         self.set_box(self.config.unbounded_margin_px);
+        let n = self.nx.len();
+        // Every half-plane's excess at the winner, once, in a loop that vectorises.
+        let mut at_winner = std::mem::take(&mut self.excess_buffer);
+        self.excess_at(x, y, 0..n, &mut at_winner);
         // Cut first with the inliers whose boundary passes closest to the winner: they
         // shrink the area at once, after which almost every other half-plane contains
         // the whole area and is dismissed by a bounding-circle test in O(1).
         const FIRST_CUTS: usize = 16;
         let mut closest = [(f64::INFINITY, 0usize); FIRST_CUTS];
-        for i in 0..self.nx.len() {
-            let e = self.half_plane(i).excess(x, y);
+        for (i, &e) in at_winner.iter().enumerate() {
             if e <= c_tol && -e < closest[FIRST_CUTS - 1].0 {
                 closest[FIRST_CUTS - 1] = (-e, i);
                 closest.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
@@ -368,16 +415,46 @@ impl Faith {
                 self.cut_area_with_tolerance(i, c_tol);
             }
         }
+        // The circle test a block at a time (vectorised), until a cut moves the circle:
+        // then again from the next half-plane, with the new circle.
+        const BLOCK: usize = 64;
+        let mut at_centre = std::mem::take(&mut self.excess_block);
         let (mut cx, mut cy, mut radius) = self.area_circle();
-        for i in 0..self.nx.len() {
-            let h = self.half_plane(i);
-            if h.excess(x, y) > c_tol || h.excess(cx, cy) + radius <= c_tol {
-                continue;
+        let mut start = 0;
+        while start < n {
+            let end = (start + BLOCK).min(n);
+            self.excess_at(cx, cy, start..end, &mut at_centre);
+            let mut next = end;
+            for i in start..end {
+                if at_winner[i] > c_tol || at_centre[i - start] + radius <= c_tol {
+                    continue;
+                }
+                if self.cut_area_with_tolerance(i, c_tol) {
+                    (cx, cy, radius) = self.area_circle();
+                    next = i + 1;
+                    break;
+                }
             }
-            if self.cut_area_with_tolerance(i, c_tol) {
-                (cx, cy, radius) = self.area_circle();
-            }
+            start = next;
         }
+        self.excess_buffer = at_winner;
+        self.excess_block = at_centre;
+    }
+
+    /// `HalfPlane::excess` at `(x, y)` of the half-planes `range`, into `out`.
+    fn excess_at(&self, x: f64, y: f64, range: std::ops::Range<usize>, out: &mut Vec<f64>) {
+        out.clear();
+        let (nx, ny, c) = (
+            &self.nx[range.clone()],
+            &self.ny[range.clone()],
+            &self.c[range],
+        );
+        out.extend(
+            nx.iter()
+                .zip(ny)
+                .zip(c)
+                .map(|((&nx, &ny), &c)| f64::from(nx) * x + f64::from(ny) * y - f64::from(c)),
+        );
     }
 
     /// Cuts the area by half-plane `i` widened by `tol`; true when the area changed.
@@ -466,24 +543,52 @@ impl Faith {
             }
         }
         let top = side as f64 + 1.0;
-        for j in 0..side {
-            let row = &mut self.grid[j * stride..(j + 1) * stride];
-            let jf = j as f64;
-            // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps
-            // the truncating cast a floor (a libm floor call would dominate here).
-            for &(x, step) in &self.rightward {
-                let xc = (x + jf * step).clamp(-1.0, top);
-                row[((xc + 1.0) as usize).min(side)] += 1;
+        let last_row = (side - 1) as f64;
+        // Line by line, each over all rows: consecutive updates then go to different
+        // rows, where row by row many lines clamp to the same slot and their
+        // increments would wait on one another. A line's column is monotonic in the
+        // row (each step of the arithmetic is), so when its first and last rows agree
+        // on "no cell violated" or "every cell violated", so do all rows between: such
+        // a line adds the same to every cell, which moves neither the plateau nor its
+        // centroid, and is left out.
+        //
+        // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps the
+        // truncating cast a floor (a libm floor call would dominate here).
+        let grid = &mut self.grid[..side * stride];
+        for &(x, step) in &self.rightward {
+            let column =
+                |jf: f64| (((x + jf * step).clamp(-1.0, top) + 1.0) as i32 as usize).min(side);
+            let (first, last) = (column(0.0), column(last_row));
+            if first == last && (first == 0 || first == side) {
+                continue;
             }
-            // Violated left of it: the whole row minus the cells from ceil(x) on,
-            // with ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
-            let mut whole = 0;
-            for &(x, step) in &self.leftward {
+            let mut jf = 0.0;
+            for row in grid.chunks_exact_mut(stride) {
+                row[column(jf)] += 1;
+                jf += 1.0;
+            }
+        }
+        // Violated left of it: the whole row minus the cells from ceil(x) on, with
+        // ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
+        let mut whole = 0;
+        for &(x, step) in &self.leftward {
+            let column = |jf: f64| {
                 let xc = (x + jf * step).clamp(0.0, top);
-                row[(side + 1 - ((top - xc) as usize)).min(side)] -= 1;
-                whole += 1;
+                (side + 1 - ((top - xc) as i32 as usize)).min(side)
+            };
+            let (first, last) = (column(0.0), column(last_row));
+            if first == last && (first == 0 || first == side) {
+                continue;
             }
-            row[whole_row] += whole;
+            let mut jf = 0.0;
+            for row in grid.chunks_exact_mut(stride) {
+                row[column(jf)] -= 1;
+                jf += 1.0;
+            }
+            whole += 1;
+        }
+        for j in 0..side {
+            self.grid[j * stride + whole_row] += whole;
         }
         let mut least = i32::MAX;
         for j in 0..side {
@@ -563,7 +668,7 @@ impl FoeEstimator for Faith {
             let Some((x, y)) = self.grow_candidate(&mut rng) else {
                 continue;
             };
-            let score = self.score(x, y);
+            let score = self.score_above(x, y, best.map_or(0, |(s, _)| s));
             if best.is_none_or(|(s, _)| score > s) {
                 best = Some((score, (x, y)));
             }
@@ -625,7 +730,7 @@ impl FoeEstimator for Faith {
         let speed_config = self.config.speed_fit();
         if let Some(p) = self
             .speed_fit
-            .refine(flow, (x, y), sensor_px, &speed_config)
+            .refine_unit(&self.unit, (x, y), sensor_px, &speed_config)
         {
             (x, y) = p;
             moved = true;

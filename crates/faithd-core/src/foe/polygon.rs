@@ -89,11 +89,19 @@ impl ConvexPolygon {
         if n < 3 {
             return;
         }
+        // Each vertex's excess once (the same value for both edges it ends), and the
+        // next vertex without a `%`: an integer division per edge cost as much as the
+        // rest of the pass.
+        let first = self.vertices[0];
+        let first_excess = half.excess(first.0, first.1);
+        let (mut a, mut da) = (first, first_excess);
         for i in 0..n {
-            let a = self.vertices[i];
-            let b = self.vertices[(i + 1) % n];
-            let da = half.excess(a.0, a.1);
-            let db = half.excess(b.0, b.1);
+            let (b, db) = if i + 1 == n {
+                (first, first_excess)
+            } else {
+                let b = self.vertices[i + 1];
+                (b, half.excess(b.0, b.1))
+            };
             if da <= 0.0 {
                 out.vertices.push(a);
             }
@@ -102,6 +110,7 @@ impl ConvexPolygon {
                 out.vertices
                     .push((a.0 + (b.0 - a.0) * s, a.1 + (b.1 - a.1) * s));
             }
+            (a, da) = (b, db);
         }
         if out.vertices.len() < 3 {
             out.vertices.clear();

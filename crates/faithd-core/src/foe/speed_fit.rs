@@ -105,53 +105,72 @@ impl PatchSums {
     }
 }
 
-/// Per-row coefficients of the occupied patches, as arrays so the cell loop runs
-/// several patches per instruction: along a grid row (fixed `fy`), `sum h` is
-/// `h0 - beta_x fx` and `sum h^2` is `(beta_xx fx + q1) fx + q0`.
-#[derive(Debug, Default)]
-struct RowTerms {
-    count: Vec<f64>,
-    beta_x: Vec<f64>,
-    beta_xx: Vec<f64>,
-    h0: Vec<f64>,
-    q0: Vec<f64>,
-    q1: Vec<f64>,
+/// `J` at `(fx[i], fy)` into `total[i]`: the same as `PatchSums::residual` summed
+/// over `patches`, written without branches.
+///
+/// Along a grid row (fixed `fy`), a patch's `sum h` is `h0 - beta_x fx` and its
+/// `sum h^2` is `(beta_xx fx + q1) fx + q0`. The loop runs patch by patch for all cells
+/// of the row at once: each cell's sum still adds the patches' residuals in patch
+/// order, so every `J` is bit for bit the sum taken one cell at a time, but the loop
+/// over cells vectorises and its sums run side by side instead of waiting on one
+/// another.
+fn row_costs(patches: &[PatchSums], fy: f64, fx: &[f64], total: &mut [f64]) {
+    let cells = fx.len().min(total.len());
+    let (fx, total) = (&fx[..cells], &mut total[..cells]);
+    total.fill(0.0);
+    for p in patches {
+        let (count, beta_x, beta_xx) = (p.count, p.beta_x, p.beta_xx);
+        let h0 = p.alpha - p.beta_y * fy;
+        let q0 = p.alpha2 - 2.0 * p.alpha_beta_y * fy + p.beta_yy * fy * fy;
+        let q1 = 2.0 * (p.beta_xy * fy - p.alpha_beta_x);
+        for (total, &fx) in total.iter_mut().zip(fx) {
+            let sum_h = h0 - beta_x * fx;
+            let sum_h2 = (beta_xx * fx + q1) * fx + q0;
+            let explained = (sum_h * sum_h / sum_h2).min(count);
+            // `&`, not `&&`: both sides are cheap, and a select vectorises.
+            let fits = (sum_h > 0.0) & (sum_h2 > 0.0);
+            *total += count - if fits { explained } else { 0.0 };
+        }
+    }
 }
 
-impl RowTerms {
-    fn set_row(&mut self, patches: &[PatchSums], fy: f64) {
-        self.count.clear();
-        self.beta_x.clear();
-        self.beta_xx.clear();
-        self.h0.clear();
-        self.q0.clear();
-        self.q1.clear();
-        for p in patches {
-            self.count.push(p.count);
-            self.beta_x.push(p.beta_x);
-            self.beta_xx.push(p.beta_xx);
-            self.h0.push(p.alpha - p.beta_y * fy);
-            self.q0
-                .push(p.alpha2 - 2.0 * p.alpha_beta_y * fy + p.beta_yy * fy * fy);
-            self.q1.push(2.0 * (p.beta_xy * fy - p.alpha_beta_x));
+/// The usable vectors of a window with their unit normals and speeds, worked out once
+/// for both FAITH's half-planes and the speed fit (the same square root and
+/// divisions either would do), as structure of arrays.
+#[derive(Debug, Default)]
+pub(crate) struct UnitFlow {
+    pub x_px: Vec<f64>,
+    pub y_px: Vec<f64>,
+    pub nx: Vec<f64>,
+    pub ny: Vec<f64>,
+    pub speed_px_s: Vec<f64>,
+}
+
+impl UnitFlow {
+    /// Keeps the vectors with a finite origin and a finite, non-zero speed.
+    pub fn load(&mut self, flow: &[FlowVector]) {
+        self.x_px.clear();
+        self.y_px.clear();
+        self.nx.clear();
+        self.ny.clear();
+        self.speed_px_s.clear();
+        for f in flow {
+            // sqrt rather than hypot: the flow is finite and far from overflow, and
+            // hypot's care costs more than the rest of this loop.
+            let speed = (f.u_px_s * f.u_px_s + f.v_px_s * f.v_px_s).sqrt();
+            if !(speed > 0.0 && speed.is_finite() && f.x_px.is_finite() && f.y_px.is_finite()) {
+                continue;
+            }
+            self.x_px.push(f.x_px);
+            self.y_px.push(f.y_px);
+            self.nx.push(f.u_px_s / speed);
+            self.ny.push(f.v_px_s / speed);
+            self.speed_px_s.push(speed);
         }
     }
 
-    /// `J` at `(fx, fy)` for the row set last; the same as `PatchSums::residual`
-    /// summed, written without branches.
-    fn cost(&self, fx: f64) -> f64 {
-        let n = self.count.len();
-        let (count, beta_x, beta_xx) = (&self.count[..n], &self.beta_x[..n], &self.beta_xx[..n]);
-        let (h0, q0, q1) = (&self.h0[..n], &self.q0[..n], &self.q1[..n]);
-        let mut total = 0.0;
-        for k in 0..n {
-            let sum_h = h0[k] - beta_x[k] * fx;
-            let sum_h2 = (beta_xx[k] * fx + q1[k]) * fx + q0[k];
-            let explained = (sum_h * sum_h / sum_h2).min(count[k]);
-            let fits = sum_h > 0.0 && sum_h2 > 0.0;
-            total += count[k] - if fits { explained } else { 0.0 };
-        }
-        total
+    pub fn len(&self) -> usize {
+        self.x_px.len()
     }
 }
 
@@ -160,7 +179,11 @@ impl RowTerms {
 pub struct SpeedFit {
     patches: Vec<PatchSums>,
     occupied: Vec<PatchSums>,
-    row: RowTerms,
+    /// The flow of `refine`, normalised.
+    unit: UnitFlow,
+    /// Grid columns' x, padded to a whole number of vector lanes, and one row's `J`.
+    column_x: Vec<f64>,
+    row_cost: Vec<f64>,
     /// Grid cells as (x, y, J).
     cells: Vec<(f64, f64, f64)>,
 }
@@ -182,7 +205,25 @@ impl SpeedFit {
         if config.radius_px <= 0.0 || config.step_px <= 0.0 || config.patch_px <= 0.0 {
             return None;
         }
-        self.sum_patches(flow, sensor_px, config.patch_px);
+        let mut unit = std::mem::take(&mut self.unit);
+        unit.load(flow);
+        let foe = self.refine_unit(&unit, start, sensor_px, config);
+        self.unit = unit;
+        foe
+    }
+
+    /// `refine` on flow already normalised.
+    pub(crate) fn refine_unit(
+        &mut self,
+        unit: &UnitFlow,
+        start: (f64, f64),
+        sensor_px: (u16, u16),
+        config: &SpeedFitConfig,
+    ) -> Option<(f64, f64)> {
+        if config.radius_px <= 0.0 || config.step_px <= 0.0 || config.patch_px <= 0.0 {
+            return None;
+        }
+        self.sum_patches(unit, sensor_px, config.patch_px);
         if self.occupied.is_empty() {
             return None;
         }
@@ -195,23 +236,19 @@ impl SpeedFit {
         self.occupied.iter().map(|p| p.residual(fx, fy)).sum()
     }
 
-    fn sum_patches(&mut self, flow: &[FlowVector], sensor_px: (u16, u16), patch_px: f64) {
+    fn sum_patches(&mut self, unit: &UnitFlow, sensor_px: (u16, u16), patch_px: f64) {
         let cols = (f64::from(sensor_px.0) / patch_px).ceil().max(1.0) as usize;
         let rows = (f64::from(sensor_px.1) / patch_px).ceil().max(1.0) as usize;
         self.patches.clear();
         self.patches.resize(cols * rows, PatchSums::default());
-        for f in flow {
-            // sqrt rather than hypot: the flow is finite and far from overflow, and
-            // hypot's care costs more than the rest of this loop.
-            let speed = (f.u_px_s * f.u_px_s + f.v_px_s * f.v_px_s).sqrt();
-            if !(speed > 0.0 && speed.is_finite() && f.x_px.is_finite() && f.y_px.is_finite()) {
-                continue;
-            }
-            let (nx, ny) = (f.u_px_s / speed, f.v_px_s / speed);
+        let n = unit.len();
+        let (x, y) = (&unit.x_px[..n], &unit.y_px[..n]);
+        let (nx, ny, speed) = (&unit.nx[..n], &unit.ny[..n], &unit.speed_px_s[..n]);
+        for i in 0..n {
             // Casts saturate: a vector off the sensor lands in the border patch.
-            let col = ((f.x_px / patch_px) as usize).min(cols - 1);
-            let row = ((f.y_px / patch_px) as usize).min(rows - 1);
-            self.patches[row * cols + col].add(f.x_px, f.y_px, nx, ny, speed);
+            let col = ((x[i] / patch_px) as usize).min(cols - 1);
+            let row = ((y[i] / patch_px) as usize).min(rows - 1);
+            self.patches[row * cols + col].add(x[i], y[i], nx[i], ny[i], speed[i]);
         }
         self.occupied.clear();
         self.occupied
@@ -220,14 +257,24 @@ impl SpeedFit {
 
     fn evaluate_grid(&mut self, start: (f64, f64), radius_px: f64, step_px: f64) {
         let half = (radius_px / step_px).round() as i64;
+        let side = (2 * half + 1) as usize;
+        self.column_x.clear();
+        self.column_x
+            .extend((-half..=half).map(|i| start.0 + i as f64 * step_px));
+        // Padding columns (copies of the last) keep the cell loop free of a remainder.
+        let last = self.column_x[side - 1];
+        self.column_x.resize(side.next_multiple_of(4), last);
+        self.row_cost.resize(self.column_x.len(), 0.0);
         self.cells.clear();
         for j in -half..=half {
             let y = start.1 + j as f64 * step_px;
-            self.row.set_row(&self.occupied, y);
-            for i in -half..=half {
-                let x = start.0 + i as f64 * step_px;
-                self.cells.push((x, y, self.row.cost(x)));
-            }
+            row_costs(&self.occupied, y, &self.column_x, &mut self.row_cost);
+            self.cells.extend(
+                self.column_x[..side]
+                    .iter()
+                    .zip(&self.row_cost)
+                    .map(|(&x, &cost)| (x, y, cost)),
+            );
         }
     }
 
@@ -271,7 +318,9 @@ mod tests {
         let flow = radial_normal_flow(&cam, &spec, 3);
         let mut fit = SpeedFit::new();
         let patch_px = 20.0;
-        fit.sum_patches(&flow, (cam.width_px, cam.height_px), patch_px);
+        let mut unit = UnitFlow::default();
+        unit.load(&flow);
+        fit.sum_patches(&unit, (cam.width_px, cam.height_px), patch_px);
         for (fx, fy) in [(130.0, 70.0), (90.0, 100.0), (200.0, 10.0), (-50.0, 300.0)] {
             let mut by_patch: std::collections::HashMap<(usize, usize), Vec<f64>> =
                 Default::default();
@@ -290,8 +339,9 @@ mod tests {
                 })
                 .sum();
             let fast = fit.cost(fx, fy);
-            fit.row.set_row(&fit.occupied, fy);
-            let by_row = fit.row.cost(fx);
+            let mut by_row = [0.0];
+            row_costs(&fit.occupied, fy, &[fx], &mut by_row);
+            let by_row = by_row[0];
             assert!(
                 (by_row - fast).abs() <= 1e-6 * fast.max(1.0),
                 "at ({fx}, {fy}): row terms {by_row}, patch sums {fast}"

@@ -1,0 +1,337 @@
+//! FAITH's estimates pinned bit for bit on seeded synthetic fields.
+//!
+//! The expected strings were computed by the code before the speed work of issue 20
+//! (commit 201cddf) and written in here: an optimisation that changes any bit of any
+//! estimate fails this test. The `Debug` form of an f64 is its shortest round-trip
+//! decimal, so equal strings mean equal bits. Keeping the estimates identical keeps
+//! every published accuracy figure (README, docs/tuning.md) valid.
+//!
+//! `PRINT_PINNED=1 cargo test -p faithd-core --test foe_pinned -- --nocapture` prints
+//! the current values in the form of the tables below.
+
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::foe::{Faith, FaithConfig, FoeEstimate, FoeEstimator};
+use faithd_core::synth::{FlowFieldSpec, radial_normal_flow};
+
+/// FOE positions: centre, off-centre, corners, on and just past a border, far outside
+/// on every side (unbounded), and far but still bounded by noise.
+const FOES_PX: [(f64, f64); 10] = [
+    (120.0, 90.0),
+    (140.0, 80.0),
+    (30.0, 150.0),
+    (225.0, 12.0),
+    (2.0, 90.0),
+    (-6.0, 90.0),
+    (-400.0, 90.0),
+    (700.0, 60.0),
+    (120.0, -500.0),
+    (100.0, 900.0),
+];
+
+fn configs() -> [(&'static str, FaithConfig); 4] {
+    [
+        ("default", FaithConfig::default()),
+        ("directions_only", FaithConfig::directions_only()),
+        ("paper", FaithConfig::paper()),
+        (
+            "tolerant_shed",
+            FaithConfig {
+                iterations: 13,
+                inlier_tolerance_px: 1.5,
+                ..FaithConfig::default()
+            },
+        ),
+    ]
+}
+
+fn spec(foe_px: (f64, f64), vectors: usize, noisy: bool) -> FlowFieldSpec {
+    if noisy {
+        FlowFieldSpec {
+            angle_noise_deg: 5.0,
+            speed_noise_rel: 0.2,
+            outlier_fraction: 0.15,
+            ..FlowFieldSpec::clean(foe_px, vectors)
+        }
+    } else {
+        FlowFieldSpec::clean(foe_px, vectors)
+    }
+}
+
+/// Every (config, FOE, size, noise) case as one line: its name and the estimate.
+fn cases() -> Vec<String> {
+    let cam = CameraIntrinsics::dvs240();
+    let mut out = Vec::new();
+    for (name, config) in configs() {
+        // One estimator per config, reused across fields: buffers must not leak.
+        let mut faith = Faith::new(cam, config);
+        for (k, &foe) in FOES_PX.iter().enumerate() {
+            for (vectors, noisy) in [(1000, true), (300, true), (3000, true), (1000, false)] {
+                let seed = 1000 * k as u64 + vectors as u64 + u64::from(noisy);
+                let flow = radial_normal_flow(&cam, &spec(foe, vectors, noisy), seed);
+                let est = faith.estimate(&flow, seed ^ 0xfa17);
+                out.push(format!(
+                    "{name} {foe:?} {vectors} {}: {est:?}",
+                    if noisy { "noisy" } else { "clean" }
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// FNV-1a over the bits of every estimate of many random fields: one number that
+/// changes when any of them does.
+fn digest(config: FaithConfig, fields: u64) -> u64 {
+    let cam = CameraIntrinsics::dvs240();
+    let mut faith = Faith::new(cam, config);
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    let mut eat = |v: u64| {
+        for b in v.to_le_bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for seed in 0..fields {
+        // FOE anywhere from well outside to well inside the view; 100 to 3000 vectors.
+        let fx = -120.0 + (seed * 37 % 480) as f64;
+        let fy = -90.0 + (seed * 53 % 360) as f64;
+        let vectors = 100 + (seed * 397 % 2900) as usize;
+        let spec = FlowFieldSpec {
+            angle_noise_deg: (seed % 9) as f64,
+            speed_noise_rel: 0.05 * (seed % 7) as f64,
+            outlier_fraction: 0.05 * (seed % 5) as f64,
+            ..FlowFieldSpec::clean((fx, fy), vectors)
+        };
+        let flow = radial_normal_flow(&cam, &spec, seed);
+        match faith.estimate(&flow, seed.wrapping_mul(0x9e37_79b9_7f4a_7c15)) {
+            FoeEstimate::Point {
+                x_px,
+                y_px,
+                support,
+            } => {
+                eat(1);
+                eat(x_px.to_bits());
+                eat(y_px.to_bits());
+                eat(support as u64);
+            }
+            FoeEstimate::Unbounded {
+                side,
+                dx,
+                dy,
+                support,
+            } => {
+                eat(2 + side as u64);
+                eat(dx.to_bits());
+                eat(dy.to_bits());
+                eat(support as u64);
+            }
+            FoeEstimate::Insufficient { vectors } => {
+                eat(9);
+                eat(vectors as u64);
+            }
+        }
+    }
+    h
+}
+
+fn printing() -> bool {
+    std::env::var_os("PRINT_PINNED").is_some()
+}
+
+#[test]
+fn estimates_are_bit_identical_to_the_pinned_ones() {
+    let got = cases();
+    if printing() {
+        for line in &got {
+            println!("    {line:?},");
+        }
+        return;
+    }
+    assert_eq!(got.len(), PINNED.len());
+    let mut wrong = 0;
+    for (g, want) in got.iter().zip(PINNED) {
+        if g != want {
+            eprintln!("got  {g}\nwant {want}");
+            wrong += 1;
+        }
+    }
+    assert_eq!(wrong, 0, "{wrong} of {} estimates changed", PINNED.len());
+}
+
+#[test]
+fn digests_of_many_fields_are_pinned() {
+    let got = [
+        digest(FaithConfig::default(), 300),
+        digest(FaithConfig::directions_only(), 300),
+        digest(FaithConfig::paper(), 300),
+    ];
+    if printing() {
+        println!("const DIGESTS: [u64; 3] = {got:#x?};");
+        return;
+    }
+    assert_eq!(got, DIGESTS);
+}
+
+const DIGESTS: [u64; 3] = [0x43ce69bab593cabb, 0xd466f77c171956e6, 0x1b4e8323c8c85841];
+
+const PINNED: &[&str] = &[
+    "default (120.0, 90.0) 1000 noisy: Point { x_px: 120.1079278877353, y_px: 87.22171422609937, support: 913 }",
+    "default (120.0, 90.0) 300 noisy: Point { x_px: 120.82536866992466, y_px: 89.59393704259169, support: 278 }",
+    "default (120.0, 90.0) 3000 noisy: Point { x_px: 119.90037388002966, y_px: 89.96544917981517, support: 2744 }",
+    "default (120.0, 90.0) 1000 clean: Point { x_px: 121.65742124288388, y_px: 90.59188182035416, support: 1000 }",
+    "default (140.0, 80.0) 1000 noisy: Point { x_px: 141.446006249939, y_px: 77.92909402583228, support: 883 }",
+    "default (140.0, 80.0) 300 noisy: Point { x_px: 146.58486129736775, y_px: 78.87651659395472, support: 276 }",
+    "default (140.0, 80.0) 3000 noisy: Point { x_px: 139.7077768972903, y_px: 79.4877623890791, support: 2725 }",
+    "default (140.0, 80.0) 1000 clean: Point { x_px: 139.95185098368205, y_px: 79.27742530458607, support: 1000 }",
+    "default (30.0, 150.0) 1000 noisy: Point { x_px: 30.054253693690914, y_px: 151.8845468505773, support: 908 }",
+    "default (30.0, 150.0) 300 noisy: Point { x_px: 36.67162850591321, y_px: 139.40227587492564, support: 268 }",
+    "default (30.0, 150.0) 3000 noisy: Point { x_px: 27.11094975055585, y_px: 154.61683458512294, support: 2719 }",
+    "default (30.0, 150.0) 1000 clean: Point { x_px: 30.288312588788365, y_px: 147.50449231027554, support: 1000 }",
+    "default (225.0, 12.0) 1000 noisy: Point { x_px: 243.07414419626195, y_px: -9.489167804439322, support: 889 }",
+    "default (225.0, 12.0) 300 noisy: Point { x_px: 260.1018887459565, y_px: -21.06368145845542, support: 278 }",
+    "default (225.0, 12.0) 3000 noisy: Point { x_px: 231.6881809198527, y_px: 3.751731201245095, support: 2727 }",
+    "default (225.0, 12.0) 1000 clean: Point { x_px: 227.28446682946762, y_px: 13.958938160011801, support: 1000 }",
+    "default (2.0, 90.0) 1000 noisy: Point { x_px: 0.07278883966286549, y_px: 90.75919587347958, support: 897 }",
+    "default (2.0, 90.0) 300 noisy: Point { x_px: -8.15853042979612, y_px: 91.5802852198916, support: 270 }",
+    "default (2.0, 90.0) 3000 noisy: Point { x_px: -6.931770568615477, y_px: 86.37900734245561, support: 2712 }",
+    "default (2.0, 90.0) 1000 clean: Point { x_px: 1.1729810547271668, y_px: 89.98740357091094, support: 1000 }",
+    "default (-6.0, 90.0) 1000 noisy: Point { x_px: -13.684585432287994, y_px: 91.48355228518608, support: 925 }",
+    "default (-6.0, 90.0) 300 noisy: Point { x_px: -20.564595376638113, y_px: 92.4191819743377, support: 275 }",
+    "default (-6.0, 90.0) 3000 noisy: Point { x_px: -28.016588098689606, y_px: 89.98336241701817, support: 2705 }",
+    "default (-6.0, 90.0) 1000 clean: Point { x_px: -4.612645037660528, y_px: 92.95982008559238, support: 1000 }",
+    "default (-400.0, 90.0) 1000 noisy: Point { x_px: -12.121802555972998, y_px: 65.00727545887946, support: 871 }",
+    "default (-400.0, 90.0) 300 noisy: Point { x_px: -67.56059785130005, y_px: 102.55601200337111, support: 277 }",
+    "default (-400.0, 90.0) 3000 noisy: Point { x_px: -16.452999467430505, y_px: 93.39647991460326, support: 2595 }",
+    "default (-400.0, 90.0) 1000 clean: Unbounded { side: Left, dx: -0.9998145003158553, dy: -0.019260450621850358, support: 961 }",
+    "default (700.0, 60.0) 1000 noisy: Point { x_px: 265.9682465095071, y_px: 46.45276712135214, support: 872 }",
+    "default (700.0, 60.0) 300 noisy: Point { x_px: 262.09499740665683, y_px: 80.54291584774698, support: 274 }",
+    "default (700.0, 60.0) 3000 noisy: Point { x_px: 263.0998795275174, y_px: 83.03856188847833, support: 2619 }",
+    "default (700.0, 60.0) 1000 clean: Unbounded { side: Right, dx: 0.9984931585529474, dy: -0.054876336639378936, support: 954 }",
+    "default (120.0, -500.0) 1000 noisy: Point { x_px: 104.59090994040942, y_px: -4.360353083240749, support: 801 }",
+    "default (120.0, -500.0) 300 noisy: Point { x_px: 120.00076624577393, y_px: -34.596068001334565, support: 261 }",
+    "default (120.0, -500.0) 3000 noisy: Point { x_px: 137.50245572098163, y_px: -13.29179716441164, support: 2553 }",
+    "default (120.0, -500.0) 1000 clean: Unbounded { side: Above, dx: -0.023216531810088467, dy: -0.9997304599994496, support: 893 }",
+    "default (100.0, 900.0) 1000 noisy: Point { x_px: 115.95559687040662, y_px: 196.33813660290915, support: 841 }",
+    "default (100.0, 900.0) 300 noisy: Point { x_px: 52.413256109489616, y_px: 212.19864511786187, support: 244 }",
+    "default (100.0, 900.0) 3000 noisy: Point { x_px: 127.4856842709513, y_px: 199.16958984516774, support: 2520 }",
+    "default (100.0, 900.0) 1000 clean: Unbounded { side: Below, dx: -0.025507089395735708, dy: 0.9996746412661262, support: 919 }",
+    "directions_only (120.0, 90.0) 1000 noisy: Point { x_px: 117.52711644195882, y_px: 87.8064060011048, support: 914 }",
+    "directions_only (120.0, 90.0) 300 noisy: Point { x_px: 119.41841490295863, y_px: 92.19718417559469, support: 277 }",
+    "directions_only (120.0, 90.0) 3000 noisy: Point { x_px: 120.81550538707845, y_px: 89.7381916123224, support: 2742 }",
+    "directions_only (120.0, 90.0) 1000 clean: Point { x_px: 121.65742124288388, y_px: 90.59188182035416, support: 1000 }",
+    "directions_only (140.0, 80.0) 1000 noisy: Point { x_px: 141.36712243971334, y_px: 76.09749200902556, support: 883 }",
+    "directions_only (140.0, 80.0) 300 noisy: Point { x_px: 148.88179294757137, y_px: 82.05549628519076, support: 274 }",
+    "directions_only (140.0, 80.0) 3000 noisy: Point { x_px: 138.1340989668296, y_px: 80.0543665403987, support: 2723 }",
+    "directions_only (140.0, 80.0) 1000 clean: Point { x_px: 139.95185098368205, y_px: 79.27742530458607, support: 1000 }",
+    "directions_only (30.0, 150.0) 1000 noisy: Point { x_px: 31.728392541692642, y_px: 149.3303881032941, support: 908 }",
+    "directions_only (30.0, 150.0) 300 noisy: Point { x_px: 39.23853065972173, y_px: 135.54004300128602, support: 270 }",
+    "directions_only (30.0, 150.0) 3000 noisy: Point { x_px: 28.87110960354462, y_px: 153.86418485862933, support: 2720 }",
+    "directions_only (30.0, 150.0) 1000 clean: Point { x_px: 30.288312211794352, y_px: 147.5044887387208, support: 1000 }",
+    "directions_only (225.0, 12.0) 1000 noisy: Point { x_px: 242.5638274171071, y_px: -11.80618046009798, support: 889 }",
+    "directions_only (225.0, 12.0) 300 noisy: Point { x_px: 259.5306237904842, y_px: -25.77465692849272, support: 278 }",
+    "directions_only (225.0, 12.0) 3000 noisy: Point { x_px: 230.7486054393638, y_px: 4.7374512500792925, support: 2729 }",
+    "directions_only (225.0, 12.0) 1000 clean: Point { x_px: 235.29239010311488, y_px: -1.7664577010939801, support: 995 }",
+    "directions_only (2.0, 90.0) 1000 noisy: Point { x_px: 4.4224540564998875, y_px: 91.04670350685127, support: 896 }",
+    "directions_only (2.0, 90.0) 300 noisy: Point { x_px: -2.4951012742470695, y_px: 91.05876269594764, support: 271 }",
+    "directions_only (2.0, 90.0) 3000 noisy: Point { x_px: -6.931770568615477, y_px: 86.37900734245561, support: 2712 }",
+    "directions_only (2.0, 90.0) 1000 clean: Point { x_px: -6.827018945272833, y_px: 89.98740357091094, support: 999 }",
+    "directions_only (-6.0, 90.0) 1000 noisy: Point { x_px: -10.676437418611002, y_px: 90.86469832355543, support: 925 }",
+    "directions_only (-6.0, 90.0) 300 noisy: Point { x_px: -20.564595376638113, y_px: 92.4191819743377, support: 275 }",
+    "directions_only (-6.0, 90.0) 3000 noisy: Point { x_px: -27.64638406980628, y_px: 89.4666302702311, support: 2706 }",
+    "directions_only (-6.0, 90.0) 1000 clean: Point { x_px: -28.591391068700318, y_px: 85.029785846567, support: 997 }",
+    "directions_only (-400.0, 90.0) 1000 noisy: Point { x_px: -12.121802555972998, y_px: 65.00727545887946, support: 871 }",
+    "directions_only (-400.0, 90.0) 300 noisy: Point { x_px: -67.56059785130005, y_px: 102.55601200337111, support: 277 }",
+    "directions_only (-400.0, 90.0) 3000 noisy: Point { x_px: -16.452999467430505, y_px: 93.39647991460326, support: 2595 }",
+    "directions_only (-400.0, 90.0) 1000 clean: Unbounded { side: Left, dx: -0.9998145003158553, dy: -0.019260450621850358, support: 961 }",
+    "directions_only (700.0, 60.0) 1000 noisy: Point { x_px: 265.9682465095071, y_px: 46.45276712135214, support: 872 }",
+    "directions_only (700.0, 60.0) 300 noisy: Point { x_px: 262.09499740665683, y_px: 80.54291584774698, support: 274 }",
+    "directions_only (700.0, 60.0) 3000 noisy: Point { x_px: 263.0998795275174, y_px: 83.03856188847833, support: 2619 }",
+    "directions_only (700.0, 60.0) 1000 clean: Unbounded { side: Right, dx: 0.9984931585529474, dy: -0.054876336639378936, support: 954 }",
+    "directions_only (120.0, -500.0) 1000 noisy: Point { x_px: 104.59090994040942, y_px: -4.360353083240749, support: 801 }",
+    "directions_only (120.0, -500.0) 300 noisy: Point { x_px: 120.00076624577393, y_px: -34.596068001334565, support: 261 }",
+    "directions_only (120.0, -500.0) 3000 noisy: Point { x_px: 137.50245572098163, y_px: -13.29179716441164, support: 2553 }",
+    "directions_only (120.0, -500.0) 1000 clean: Unbounded { side: Above, dx: -0.023216531810088467, dy: -0.9997304599994496, support: 893 }",
+    "directions_only (100.0, 900.0) 1000 noisy: Point { x_px: 115.95559687040662, y_px: 196.33813660290915, support: 841 }",
+    "directions_only (100.0, 900.0) 300 noisy: Point { x_px: 52.413256109489616, y_px: 212.19864511786187, support: 244 }",
+    "directions_only (100.0, 900.0) 3000 noisy: Point { x_px: 127.4856842709513, y_px: 199.16958984516774, support: 2520 }",
+    "directions_only (100.0, 900.0) 1000 clean: Unbounded { side: Below, dx: -0.025507089395735708, dy: 0.9996746412661262, support: 919 }",
+    "paper (120.0, 90.0) 1000 noisy: Point { x_px: 119.5, y_px: 89.5, support: 915 }",
+    "paper (120.0, 90.0) 300 noisy: Point { x_px: 119.5, y_px: 89.5, support: 278 }",
+    "paper (120.0, 90.0) 3000 noisy: Point { x_px: 114.38250118559756, y_px: 89.5, support: 2740 }",
+    "paper (120.0, 90.0) 1000 clean: Point { x_px: 119.5, y_px: 89.5, support: 1000 }",
+    "paper (140.0, 80.0) 1000 noisy: Point { x_px: 145.76697861247249, y_px: 78.64690882952758, support: 886 }",
+    "paper (140.0, 80.0) 300 noisy: Point { x_px: 150.99853750012116, y_px: 77.98123933878989, support: 275 }",
+    "paper (140.0, 80.0) 3000 noisy: Point { x_px: 143.98234957730452, y_px: 82.7286544226498, support: 2723 }",
+    "paper (140.0, 80.0) 1000 clean: Point { x_px: 137.97815406658583, y_px: 74.31382063138429, support: 1000 }",
+    "paper (30.0, 150.0) 1000 noisy: Point { x_px: 31.692132889874035, y_px: 147.01215432899193, support: 908 }",
+    "paper (30.0, 150.0) 300 noisy: Point { x_px: 56.347451015640225, y_px: 133.636095307894, support: 272 }",
+    "paper (30.0, 150.0) 3000 noisy: Point { x_px: 34.89924023965174, y_px: 149.77636930903816, support: 2723 }",
+    "paper (30.0, 150.0) 1000 clean: Point { x_px: 32.40040807618778, y_px: 147.9432509088183, support: 1000 }",
+    "paper (225.0, 12.0) 1000 noisy: Point { x_px: 211.7720027825066, y_px: 18.42226372965871, support: 894 }",
+    "paper (225.0, 12.0) 300 noisy: Point { x_px: 231.2059788183523, y_px: 16.438529234441443, support: 278 }",
+    "paper (225.0, 12.0) 3000 noisy: Point { x_px: 216.36775342805623, y_px: 0.3724739240152947, support: 2718 }",
+    "paper (225.0, 12.0) 1000 clean: Point { x_px: 220.36124985104007, y_px: 17.062722450735283, support: 999 }",
+    "paper (2.0, 90.0) 1000 noisy: Point { x_px: 7.079768904016551, y_px: 94.40700019477546, support: 896 }",
+    "paper (2.0, 90.0) 300 noisy: Point { x_px: 8.632605806414556, y_px: 89.5, support: 272 }",
+    "paper (2.0, 90.0) 3000 noisy: Point { x_px: 15.074222868126474, y_px: 84.23492872349644, support: 2685 }",
+    "paper (2.0, 90.0) 1000 clean: Point { x_px: 19.801379629400493, y_px: 89.5, support: 989 }",
+    "paper (-6.0, 90.0) 1000 noisy: Point { x_px: 11.41644388447221, y_px: 89.5, support: 924 }",
+    "paper (-6.0, 90.0) 300 noisy: Point { x_px: 11.580623963186248, y_px: 96.75804817710244, support: 272 }",
+    "paper (-6.0, 90.0) 3000 noisy: Point { x_px: 13.934050936756572, y_px: 84.5499790949619, support: 2684 }",
+    "paper (-6.0, 90.0) 1000 clean: Point { x_px: 8.769760625507752, y_px: 94.36279081074437, support: 997 }",
+    "paper (-400.0, 90.0) 1000 noisy: Point { x_px: 1.0718262288623053, y_px: 60.75308448184544, support: 859 }",
+    "paper (-400.0, 90.0) 300 noisy: Point { x_px: 4.978699547022725, y_px: 89.5, support: 263 }",
+    "paper (-400.0, 90.0) 3000 noisy: Point { x_px: 2.036184742293754, y_px: 68.01543780232146, support: 2505 }",
+    "paper (-400.0, 90.0) 1000 clean: Point { x_px: 1.6855487674729872, y_px: 116.17330402891633, support: 930 }",
+    "paper (700.0, 60.0) 1000 noisy: Point { x_px: 238.1035993043578, y_px: 110.4586668291009, support: 849 }",
+    "paper (700.0, 60.0) 300 noisy: Point { x_px: 229.70543506974383, y_px: 77.23642733829965, support: 263 }",
+    "paper (700.0, 60.0) 3000 noisy: Point { x_px: 238.4067849263629, y_px: 102.84275966026411, support: 2514 }",
+    "paper (700.0, 60.0) 1000 clean: Point { x_px: 232.21514453448856, y_px: 89.5, support: 935 }",
+    "paper (120.0, -500.0) 1000 noisy: Point { x_px: 91.2130225063381, y_px: 2.3625521023496443, support: 788 }",
+    "paper (120.0, -500.0) 300 noisy: Point { x_px: 109.93743931103297, y_px: 0.4697411157248622, support: 242 }",
+    "paper (120.0, -500.0) 3000 noisy: Point { x_px: 109.12751592108565, y_px: 0.9889274122535028, support: 2465 }",
+    "paper (120.0, -500.0) 1000 clean: Point { x_px: 174.81723873922147, y_px: 4.113811045835305, support: 841 }",
+    "paper (100.0, 900.0) 1000 noisy: Point { x_px: 93.22078598472736, y_px: 168.00285358643316, support: 795 }",
+    "paper (100.0, 900.0) 300 noisy: Point { x_px: 92.34626179297759, y_px: 171.69608661485006, support: 235 }",
+    "paper (100.0, 900.0) 3000 noisy: Point { x_px: 107.5217412093062, y_px: 175.07395739863972, support: 2415 }",
+    "paper (100.0, 900.0) 1000 clean: Point { x_px: 124.41279773816913, y_px: 176.77322773750723, support: 876 }",
+    "tolerant_shed (120.0, 90.0) 1000 noisy: Point { x_px: 119.87634381011162, y_px: 86.70844375019396, support: 914 }",
+    "tolerant_shed (120.0, 90.0) 300 noisy: Point { x_px: 120.67900447561223, y_px: 89.46563699177793, support: 278 }",
+    "tolerant_shed (120.0, 90.0) 3000 noisy: Point { x_px: 119.81706090490468, y_px: 89.88254330264643, support: 2746 }",
+    "tolerant_shed (120.0, 90.0) 1000 clean: Point { x_px: 121.49946028145456, y_px: 91.05924583321017, support: 1000 }",
+    "tolerant_shed (140.0, 80.0) 1000 noisy: Point { x_px: 141.8601109975242, y_px: 77.9524438099194, support: 886 }",
+    "tolerant_shed (140.0, 80.0) 300 noisy: Point { x_px: 146.65913538029676, y_px: 79.01976997074262, support: 276 }",
+    "tolerant_shed (140.0, 80.0) 3000 noisy: Point { x_px: 140.17269962068903, y_px: 79.38524325369016, support: 2728 }",
+    "tolerant_shed (140.0, 80.0) 1000 clean: Point { x_px: 139.9439208500472, y_px: 79.23322351161653, support: 1000 }",
+    "tolerant_shed (30.0, 150.0) 1000 noisy: Point { x_px: 29.927895054210477, y_px: 152.03313182355035, support: 910 }",
+    "tolerant_shed (30.0, 150.0) 300 noisy: Point { x_px: 38.84499935022045, y_px: 137.90686340853892, support: 270 }",
+    "tolerant_shed (30.0, 150.0) 3000 noisy: Point { x_px: 27.373930044850265, y_px: 153.59831098254708, support: 2728 }",
+    "tolerant_shed (30.0, 150.0) 1000 clean: Point { x_px: 30.175783241759614, y_px: 147.3045435660578, support: 1000 }",
+    "tolerant_shed (225.0, 12.0) 1000 noisy: Point { x_px: 244.10094062988668, y_px: -11.367032022010116, support: 889 }",
+    "tolerant_shed (225.0, 12.0) 300 noisy: Point { x_px: 257.53675555103973, y_px: -17.519951422607754, support: 278 }",
+    "tolerant_shed (225.0, 12.0) 3000 noisy: Point { x_px: 231.08940092626145, y_px: 4.41119007673319, support: 2731 }",
+    "tolerant_shed (225.0, 12.0) 1000 clean: Point { x_px: 227.61790988539929, y_px: 13.18379882559992, support: 1000 }",
+    "tolerant_shed (2.0, 90.0) 1000 noisy: Point { x_px: 0.9062120005763412, y_px: 89.19203534691214, support: 898 }",
+    "tolerant_shed (2.0, 90.0) 300 noisy: Point { x_px: -8.038919720542992, y_px: 91.0844642167389, support: 272 }",
+    "tolerant_shed (2.0, 90.0) 3000 noisy: Point { x_px: -2.766351526429973, y_px: 88.48013338990533, support: 2715 }",
+    "tolerant_shed (2.0, 90.0) 1000 clean: Point { x_px: 1.6156705718309183, y_px: 89.90871483530864, support: 1000 }",
+    "tolerant_shed (-6.0, 90.0) 1000 noisy: Point { x_px: -14.545887366911398, y_px: 91.70506277959944, support: 925 }",
+    "tolerant_shed (-6.0, 90.0) 300 noisy: Point { x_px: -27.542857116738027, y_px: 87.92043585078257, support: 276 }",
+    "tolerant_shed (-6.0, 90.0) 3000 noisy: Point { x_px: -22.090739561855933, y_px: 88.0704798165999, support: 2713 }",
+    "tolerant_shed (-6.0, 90.0) 1000 clean: Point { x_px: -3.878228641562284, y_px: 91.57931228682604, support: 1000 }",
+    "tolerant_shed (-400.0, 90.0) 1000 noisy: Point { x_px: -12.710193925428179, y_px: 66.93888537835203, support: 873 }",
+    "tolerant_shed (-400.0, 90.0) 300 noisy: Point { x_px: -77.83808889949484, y_px: 91.42675383453347, support: 280 }",
+    "tolerant_shed (-400.0, 90.0) 3000 noisy: Point { x_px: -14.219289034776438, y_px: 66.17730658565841, support: 2594 }",
+    "tolerant_shed (-400.0, 90.0) 1000 clean: Unbounded { side: Left, dx: -0.9998144959835751, dy: -0.019260675510213633, support: 964 }",
+    "tolerant_shed (700.0, 60.0) 1000 noisy: Point { x_px: 245.46823644558225, y_px: 57.301587447939646, support: 865 }",
+    "tolerant_shed (700.0, 60.0) 300 noisy: Point { x_px: 265.0758398597705, y_px: 80.7002172205879, support: 274 }",
+    "tolerant_shed (700.0, 60.0) 3000 noisy: Point { x_px: 259.7925775104158, y_px: 83.916658088127, support: 2620 }",
+    "tolerant_shed (700.0, 60.0) 1000 clean: Unbounded { side: Right, dx: 0.9984931469916101, dy: -0.054876547001345546, support: 950 }",
+    "tolerant_shed (120.0, -500.0) 1000 noisy: Point { x_px: 131.11701344781102, y_px: -66.71337152839077, support: 867 }",
+    "tolerant_shed (120.0, -500.0) 300 noisy: Point { x_px: 142.35305248715426, y_px: -33.20407753788652, support: 260 }",
+    "tolerant_shed (120.0, -500.0) 3000 noisy: Point { x_px: 137.6842746662042, y_px: -14.054904669661946, support: 2561 }",
+    "tolerant_shed (120.0, -500.0) 1000 clean: Unbounded { side: Above, dx: -0.023217226034767408, dy: -0.9997304438773736, support: 881 }",
+    "tolerant_shed (100.0, 900.0) 1000 noisy: Point { x_px: 61.35822579943506, y_px: 195.51620097910595, support: 824 }",
+    "tolerant_shed (100.0, 900.0) 300 noisy: Point { x_px: 62.248890681208884, y_px: 254.976856393604, support: 249 }",
+    "tolerant_shed (100.0, 900.0) 3000 noisy: Point { x_px: 126.97126339848981, y_px: 199.76925907916535, support: 2534 }",
+    "tolerant_shed (100.0, 900.0) 1000 clean: Unbounded { side: Below, dx: -0.025507998111015666, dy: 0.9996746180794871, support: 913 }",
+];
