@@ -57,6 +57,11 @@ pub struct FlightSpec {
     pub contrast: f64,
     /// Background-activity noise, events per pixel per second.
     pub noise_rate_hz: f64,
+    /// The daemon and iNav run this long before the flight starts, the vehicle
+    /// waiting at its start: faithd is a service that runs from boot, so on a real
+    /// approach its link is up, iNav's once-a-second HEARTBEAT has come and the MSP
+    /// stream is warm. Flight times (`decision_s`, the path) count from the end of it.
+    pub lead_in_s: f64,
     /// The pilot puts the switch in AUTO at `auto_at_s`; false keeps it in MANUAL.
     pub pilot_auto: bool,
     pub auto_at_s: f64,
@@ -78,6 +83,7 @@ impl Default for FlightSpec {
             start_distance_m: 5.5,
             contrast: 1.0,
             noise_rate_hz: 0.5,
+            lead_in_s: 1.5,
             pilot_auto: true,
             auto_at_s: 0.5,
             max_time_s: 8.0,
@@ -215,7 +221,7 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
         },
         observer: Some(obs_tx),
     };
-    let start_us = clock.now_us();
+    let start_us = clock.now_us() + (spec.lead_in_s * 1e6) as i64;
     let done = shared.clone();
     let ended = daemon::serve(config, endpoint, msp_endpoint, hooks, async move {
         done.done.notified().await;

@@ -110,6 +110,8 @@ pub async fn run(
     clock: DaemonClock,
     batches: SyncSender<Vec<Event>>,
 ) {
+    // Waiting at the start while the daemon boots: nothing moves, nothing fires.
+    tokio::time::sleep(Duration::from_micros((spec.lead_in_s * 1e6) as u64)).await;
     let mut quad = initial_quad(&spec);
     let arena = arena(&spec);
     let mut camera = FlightCamera::new(&spec);
