@@ -129,8 +129,6 @@ fn a_slow_board_overruns_and_sheds_load() {
     assert!(slow.pipeline.overruns > 0, "{:?}", slow.pipeline);
     assert!(slow.pipeline.shed_cycles > 0, "{:?}", slow.pipeline);
     assert!(slow.pipeline.max_load_level >= 1);
-    // Late cycles skip periods: fewer of them in the same flight.
-    assert!(slow.pipeline.cycles < here.pipeline.cycles);
     // Ten times the cost, less what the shed load saves.
     assert!(
         slow.pipeline.charged_us_p50 > 3.0 * here.pipeline.charged_us_p50,
