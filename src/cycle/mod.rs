@@ -7,6 +7,8 @@
 //! waits for this thread: everything leaves it through non-blocking sends.
 
 #[cfg(feature = "sim")]
+pub mod bench;
+#[cfg(feature = "sim")]
 pub mod compute;
 pub mod shed;
 #[cfg(feature = "sim")]

@@ -107,6 +107,9 @@ enum Command {
 enum BenchCommand {
     /// Table I of the paper: all four FOE methods on simulated flights.
     Foe(simulate::BenchFoeArgs),
+    /// The whole pipeline at given event rates: per-stage cost per window, throughput,
+    /// load shedding and peak memory.
+    Pipeline(simulate::BenchPipelineArgs),
     /// Fit the model of the pipeline's compute time that simulated flights charge
     /// (`sim --cpu-scale`) to this machine, and show how well the committed one fits.
     Compute(simulate::BenchComputeArgs),
@@ -147,6 +150,10 @@ fn try_main(command: Command) -> Result<(), Failure> {
         Command::Bench {
             what: BenchCommand::Compute(args),
         } => simulate::bench_compute(&args),
+        #[cfg(feature = "sim")]
+        Command::Bench {
+            what: BenchCommand::Pipeline(args),
+        } => simulate::bench_pipeline(&args),
         Command::Run(args) => flight::run(&args),
         Command::Replay(args) => flight::replay(&args),
         Command::CheckConfig { path } => flight::check_config(&path),

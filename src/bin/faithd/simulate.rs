@@ -560,6 +560,110 @@ fn roll_ttc_s(o: &faithd::closed_loop::FlightOutcome) -> Option<(f64, f64)> {
     Some((measured, o.ttc_at_decision_s?))
 }
 
+/// `faithd bench pipeline`.
+#[derive(Args)]
+pub struct BenchPipelineArgs {
+    /// Event rates of the generated streams, events per second.
+    #[arg(long = "events-per-s", value_delimiter = ',', default_values_t = [500_000.0, 2_000_000.0, 8_000_000.0])]
+    rates: Vec<f64>,
+    /// Length of each generated stream, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    seconds: f64,
+    /// Instead of generated streams: a recording (AEDAT 2/3/4 or text), as recorded.
+    #[arg(long, conflicts_with = "rates")]
+    events: Option<PathBuf>,
+    /// Load shedding as on a board this much slower than this machine (`atom`: the
+    /// paper's Intel Atom x5-Z8350).
+    #[arg(long, default_value = "1", value_parser = parse_cpu_scale)]
+    cpu_scale: f64,
+    /// The pipeline settings (`[pipeline]` and `[daemon]` of a faithd.toml).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn bench_pipeline(args: &BenchPipelineArgs) -> Result<(), Failure> {
+    use faithd::cycle::bench;
+    let config = match args.config.as_deref().map(FaithdConfig::load).transpose() {
+        Ok(c) => c.unwrap_or_default(),
+        Err(e) => return Err(Failure::refused(e)),
+    };
+    if !(args.seconds > 0.0 && args.seconds <= 60.0) {
+        return Err(Failure::refused(format!(
+            "--seconds must be above 0 and at most 60, got {}",
+            args.seconds
+        )));
+    }
+    // Each stream is made (or read) just before its run and dropped after it.
+    let streams: Vec<String> = match &args.events {
+        Some(path) => vec![path.display().to_string()],
+        None => args
+            .rates
+            .iter()
+            .map(|r| format!("generated {:.1} Mev/s", r / 1e6))
+            .collect(),
+    };
+    let progress = progress_bar(streams.len() as u64, "streams");
+    let mut reports = Vec::new();
+    for (i, name) in streams.iter().enumerate() {
+        let events = match &args.events {
+            Some(path) => faithd_formats::events::open_events(path)
+                .and_then(|mut r| faithd_formats::events::read_all(r.as_mut()))
+                .map_err(|e| Failure::refused(format!("{}: {e}", path.display())))?,
+            None => bench::generated_stream(args.rates[i], args.seconds, 1),
+        };
+        let report = bench::run(&events, config.pipeline, config.daemon, args.cpu_scale);
+        reports.push((name.clone(), report));
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    if args.json {
+        let rows: Vec<_> = reports
+            .iter()
+            .map(|(name, r)| serde_json::json!({ "stream": name, "report": r }))
+            .collect();
+        println!(
+            "{}",
+            serde_json::json!({ "cpu_scale": args.cpu_scale, "streams": rows })
+        );
+        return Ok(());
+    }
+    println!(
+        "faithd bench pipeline: one window per {} ms, load shed as at cpu scale {}",
+        config.daemon.period_us / 1000,
+        args.cpu_scale
+    );
+    for (name, r) in &reports {
+        println!(
+            "  {name}: {:.2} Mev/s, {} windows of {:.0} events (p99 {:.0})",
+            r.events_per_s / 1e6,
+            r.windows,
+            r.events_per_window_p50,
+            r.events_per_window_p99
+        );
+        let stages: Vec<String> = r
+            .stages_us
+            .iter()
+            .map(|s| format!("{} {:.0}/{:.0}", s.stage, s.p50_us, s.p99_us))
+            .collect();
+        println!("    us per window p50/p99: {}", stages.join(", "));
+        println!(
+            "    whole window {:.0}/{:.0} us; {:.2} Mev/s per core of compute; {} over budget, {} shed (level up to {}); peak RSS {:.1} MB ({:.1} MB of it the stream)",
+            r.window_us_p50,
+            r.window_us_p99,
+            r.throughput_events_per_s / 1e6,
+            r.overruns,
+            r.shed_windows,
+            r.max_load_level,
+            r.peak_rss_bytes.unwrap_or(0) as f64 / 1e6,
+            r.stream_bytes as f64 / 1e6
+        );
+    }
+    Ok(())
+}
+
 /// `faithd bench compute`.
 #[derive(Args)]
 pub struct BenchComputeArgs {
