@@ -207,13 +207,19 @@ pub struct Pipeline {
     recent_calls: u64,
     /// The last windows' FOE points, for the median.
     recent_foe_px: std::collections::VecDeque<(f64, f64)>,
+    /// Scratch for that median, kept so a window allocates nothing.
+    median_scratch: Vec<f64>,
 }
 
 impl Pipeline {
     pub fn new(config: PipelineConfig) -> Self {
         let cam = config.camera;
         let estimator = match config.foe_method {
-            FoeMethod::Faith => Estimator::Faith(Box::new(Faith::new(cam, config.faith))),
+            FoeMethod::Faith => {
+                let mut faith = Faith::new(cam, config.faith);
+                faith.reserve(config.max_vectors);
+                Estimator::Faith(Box::new(faith))
+            }
             FoeMethod::HalfPlanes => {
                 Estimator::HalfPlanes(HalfPlaneMap::new(cam, config.half_planes))
             }
@@ -239,7 +245,10 @@ impl Pipeline {
             labels: Vec::with_capacity(2 * config.max_vectors),
             clusters: Vec::new(),
             recent_calls: 0,
-            recent_foe_px: std::collections::VecDeque::new(),
+            recent_foe_px: std::collections::VecDeque::with_capacity(
+                config.foe_smoothing_windows.max(1),
+            ),
+            median_scratch: Vec::with_capacity(config.foe_smoothing_windows.max(1)),
             config,
         }
     }
@@ -365,18 +374,23 @@ impl Pipeline {
             self.recent_foe_px.pop_front();
         }
         self.recent_foe_px.push_back((x_px, y_px));
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            let n = v.len();
+        let scratch = &mut self.median_scratch;
+        let mut median = |values: &mut dyn Iterator<Item = f64>| {
+            scratch.clear();
+            scratch.extend(values);
+            scratch.sort_by(f64::total_cmp);
+            let n = scratch.len();
             if n % 2 == 1 {
-                v[n / 2]
+                scratch[n / 2]
             } else {
-                0.5 * (v[n / 2 - 1] + v[n / 2])
+                0.5 * (scratch[n / 2 - 1] + scratch[n / 2])
             }
         };
+        let x_px = median(&mut self.recent_foe_px.iter().map(|p| p.0));
+        let y_px = median(&mut self.recent_foe_px.iter().map(|p| p.1));
         FoeEstimate::Point {
-            x_px: median(self.recent_foe_px.iter().map(|p| p.0).collect()),
-            y_px: median(self.recent_foe_px.iter().map(|p| p.1).collect()),
+            x_px,
+            y_px,
             support,
         }
     }

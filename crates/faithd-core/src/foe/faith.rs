@@ -267,6 +267,24 @@ impl Faith {
         &self.config
     }
 
+    /// Room for windows of up to `vectors` vectors (and the largest plateau grid),
+    /// so that a steady stream of windows allocates nothing.
+    pub fn reserve(&mut self, vectors: usize) {
+        for v in [&mut self.nx, &mut self.ny, &mut self.c, &mut self.c_tol] {
+            v.reserve(vectors.saturating_sub(v.len()));
+        }
+        for v in [&mut self.excess_buffer, &mut self.excess_block] {
+            v.reserve(vectors.saturating_sub(v.len()));
+        }
+        for v in [&mut self.rightward, &mut self.leftward] {
+            v.reserve(vectors.saturating_sub(v.len()));
+        }
+        self.grid
+            .reserve((512 * 514usize).saturating_sub(self.grid.len()));
+        self.unit.reserve(vectors);
+        self.speed_fit.reserve(vectors);
+    }
+
     /// Sets the iteration count; the daemon lowers it to shed load under a tight budget.
     pub fn set_iterations(&mut self, iterations: u32) {
         self.config.iterations = iterations;

@@ -172,6 +172,19 @@ impl UnitFlow {
     pub fn len(&self) -> usize {
         self.x_px.len()
     }
+
+    /// Room for `vectors` without growing.
+    pub fn reserve(&mut self, vectors: usize) {
+        for v in [
+            &mut self.x_px,
+            &mut self.y_px,
+            &mut self.nx,
+            &mut self.ny,
+            &mut self.speed_px_s,
+        ] {
+            v.reserve(vectors.saturating_sub(v.len()));
+        }
+    }
 }
 
 /// The speed fit with its reusable buffers.
@@ -191,6 +204,11 @@ pub struct SpeedFit {
 impl SpeedFit {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Room for windows of up to `vectors` vectors, so that none allocates.
+    pub fn reserve(&mut self, vectors: usize) {
+        self.unit.reserve(vectors);
     }
 
     /// The FOE placed by the speeds around `start`, or `None` when the vectors give no

@@ -1,0 +1,91 @@
+//! Once warmed up, a window allocates nothing: the pipeline owns every buffer it
+//! needs, so a steady stream never waits on the allocator (whose time is not
+//! bounded) and never fragments a board's memory over a long flight.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+
+use faithd_core::attitude::AttitudeSample;
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
+use faithd_core::synth::{LoomingEdges, looming_edge_events};
+
+/// Counts allocations (and reallocations) while `COUNTING` is set.
+struct Counting;
+
+static COUNTING: AtomicBool = AtomicBool::new(false);
+static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: the layout comes from the caller, as for System itself.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was allocated by System with this layout.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if COUNTING.load(Ordering::Relaxed) {
+            ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        }
+        // SAFETY: as for `dealloc`; System handles the new size.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn a_warmed_up_pipeline_allocates_nothing_per_window() {
+    let cam = CameraIntrinsics::dvs240();
+    let mut scene = LoomingEdges::pole_ahead((130.0, 85.0));
+    scene.noise_rate_hz = 0.5;
+    scene.jitter_us = 50.0;
+    scene.duration_s = 0.6;
+    let events = looming_edge_events(&cam, &scene, 3);
+    let attitude: Vec<AttitudeSample> = (0..=40)
+        .map(|k| AttitudeSample {
+            t_us: k * 20_000,
+            roll_rad: 0.0,
+            pitch_rad: 0.0,
+            yaw_rad: 0.0,
+            roll_rate_rad_s: 0.0,
+            pitch_rate_rad_s: 0.0,
+            yaw_rate_rad_s: 0.0,
+        })
+        .collect();
+    let mut pipeline = Pipeline::new(PipelineConfig::default());
+    let mut start = 0;
+    let mut per_window = Vec::new();
+    for k in 1..=60 {
+        let end_us = k * 10_000;
+        let stop = start + faithd_core::window::events_until(&events[start..], end_us);
+        // The first 30 windows warm the buffers up (the history fills, FAITH's and
+        // DBSCAN's scratch reach their sizes); the last 30 are counted.
+        ALLOCATIONS.store(0, Ordering::Relaxed);
+        COUNTING.store(k > 30, Ordering::Relaxed);
+        let report = pipeline.process_window(&events[start..stop], &attitude, end_us, &mut NoClock);
+        let vectors = report.vectors.len();
+        COUNTING.store(false, Ordering::Relaxed);
+        if k > 30 {
+            per_window.push((end_us, vectors, ALLOCATIONS.load(Ordering::Relaxed)));
+        }
+        start = stop;
+    }
+    assert!(
+        per_window.iter().all(|&(_, v, _)| v > 500),
+        "{per_window:?}"
+    );
+    let allocating: Vec<_> = per_window.iter().filter(|w| w.2 > 0).collect();
+    assert!(
+        allocating.is_empty(),
+        "windows that allocated (t_us, vectors, allocations): {allocating:?}"
+    );
+}
