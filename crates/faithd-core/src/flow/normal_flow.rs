@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::invalid::{Invalid, check, positive};
 
-use super::plane_fit::{PlaneFit, fit_plane};
+use super::plane_fit::Plane;
 use super::surface::{ActiveEventSurface, NEVER_US};
 use super::vector::FlowVector;
 use crate::camera::CameraIntrinsics;
@@ -133,21 +133,6 @@ impl FlowConfig {
     }
 }
 
-/// Moves the points within `max_residual_us` of the plane to the front; returns how
-/// many they are.
-fn keep_near(fit: &PlaneFit, max_residual_us: f64, points: &mut [(f64, f64, f64)]) -> usize {
-    let mut kept = 0;
-    for i in 0..points.len() {
-        let (px, py, pt) = points[i];
-        let r = pt - (fit.a_us_per_px * px + fit.b_us_per_px * py + fit.c_us);
-        if r.abs() <= max_residual_us {
-            points[kept] = points[i];
-            kept += 1;
-        }
-    }
-    kept
-}
-
 /// Counters of what happened to the events of a window, for logs and health checks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct FlowStats {
@@ -166,19 +151,290 @@ pub struct FlowStats {
     pub not_fitted: u64,
 }
 
+/// Points of one neighbourhood: `(dx_px, dy_px, dt_us)` relative to the event.
+type Point = (f64, f64, f64);
+
+/// Size of the point buffers: a power of two of at least `MAX_POINTS`. Indices below
+/// `MAX_POINTS` are masked with `BUF_POINTS - 1`, which leaves them unchanged and shows
+/// the compiler they are in bounds.
+const BUF_POINTS: usize = 128;
+const _: () = assert!(BUF_POINTS.is_power_of_two() && BUF_POINTS >= MAX_POINTS);
+
+/// Windows up to this long let the times of a neighbourhood be summed as integers: every
+/// partial sum of at most `MAX_POINTS` times within the window is below 2^53, so the
+/// floating-point sum the plane fit adds up is exact and equals the integer sum.
+const EXACT_TIME_SUM_WINDOW_US: i64 = (1 << 53) / MAX_POINTS as i64;
+
+/// Scratch space of one event's fit, reused from event to event: a neighbourhood's
+/// points, and the subset a refit or the tight check works on.
+struct Scratch {
+    points: [Point; BUF_POINTS],
+    subset: [Point; BUF_POINTS],
+}
+
+impl Scratch {
+    fn new() -> Box<Self> {
+        Box::new(Self {
+            points: [(0.0, 0.0, 0.0); BUF_POINTS],
+            subset: [(0.0, 0.0, 0.0); BUF_POINTS],
+        })
+    }
+}
+
+/// What an event did to the surface.
+enum Mark {
+    OutOfView,
+    Refractory,
+    /// It is now the pixel's latest event (x, y in pixels).
+    Marked(usize, usize),
+}
+
+/// The surface of active events with the scratch space and counters that go with it:
+/// everything one thread needs to run the flow.
+struct Engine {
+    surface: ActiveEventSurface,
+    scratch: Box<Scratch>,
+    stats: FlowStats,
+}
+
+impl Engine {
+    fn new(width_px: u16, height_px: u16) -> Self {
+        Self {
+            surface: ActiveEventSurface::new(width_px, height_px),
+            scratch: Scratch::new(),
+            stats: FlowStats::default(),
+        }
+    }
+
+    /// The surface update every event makes: a pixel in view, not within the
+    /// refractory time of its previous same-polarity event, takes the event's time.
+    #[inline(always)]
+    fn mark(&mut self, e: &Event, refractory_us: i64) -> Mark {
+        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
+        if x >= self.surface.width_px() || y >= self.surface.height_px() {
+            return Mark::OutOfView;
+        }
+        let previous_us = self.surface.get(x, y, e.polarity);
+        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < refractory_us {
+            return Mark::Refractory;
+        }
+        self.surface.set(x, y, e.polarity, e.t_us);
+        Mark::Marked(x, y)
+    }
+
+    /// An event that is not fitted still marks its pixel, for its neighbours' fits.
+    #[inline(always)]
+    fn update_surface(&mut self, e: &Event, config: &FlowConfig) {
+        self.stats.events += 1;
+        match self.mark(e, config.refractory_us) {
+            Mark::OutOfView => self.stats.out_of_view += 1,
+            Mark::Refractory => self.stats.refractory += 1,
+            Mark::Marked(..) => self.stats.not_fitted += 1,
+        }
+    }
+
+    /// One event: update the surface, then try a plane fit around it.
+    ///
+    /// The arithmetic is that of `fit_plane` on the points the original per-event code
+    /// gathered, in their order, so the vectors are the same to the bit; what changed
+    /// is what is not computed. The coordinate sums are added while gathering (as
+    /// integers where that is exact), the initial fit's residuals are computed once
+    /// for its sum of squares, the outlier rejection and the tight check together, and
+    /// the refit's sums come from the same pass. The tight plane is fitted only for an
+    /// event that yields a vector, and not at all when its points are those of the
+    /// initial fit or of the refit (the same points in the same order give the same
+    /// plane). A fit's RMS and gradient error are computed only when they are checked.
+    #[inline(always)]
+    fn process_event(&mut self, e: &Event, config: &FlowConfig) -> Option<FlowVector> {
+        self.stats.events += 1;
+        let (x, y) = match self.mark(e, config.refractory_us) {
+            Mark::OutOfView => {
+                self.stats.out_of_view += 1;
+                return None;
+            }
+            Mark::Refractory => {
+                self.stats.refractory += 1;
+                return None;
+            }
+            Mark::Marked(x, y) => (x, y),
+        };
+        let Self {
+            surface,
+            scratch,
+            stats,
+        } = self;
+        let Scratch { points, subset } = &mut **scratch;
+
+        let (n, sums) = if config.window_us <= EXACT_TIME_SUM_WINDOW_US {
+            gather::<true>(surface, e, x, y, config, points)
+        } else {
+            gather::<false>(surface, e, x, y, config, points)
+        };
+        if n < config.min_points {
+            stats.too_few_points += 1;
+            return None;
+        }
+        let points = &points[..n];
+        let Some(initial) = Plane::through(points, sums) else {
+            stats.bad_fit += 1;
+            return None;
+        };
+        // The initial fit's residuals: its sum of squares, one round of outlier
+        // rejection (stale or early pixels off the plane) with the refit's sums, and
+        // the size of the tight check's set.
+        let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
+        let mut ss = 0.0;
+        let (mut kept, mut near) = (0, 0);
+        let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
+        for &p in points {
+            let r = initial.residual_us(p);
+            ss += r * r;
+            let keep = r.abs() <= outlier_us;
+            near += usize::from(r.abs() <= tight_us);
+            subset[kept & (BUF_POINTS - 1)] = p;
+            kept += usize::from(keep);
+            // Adding +0 leaves a sum's bits as they are (it is never -0): the sums
+            // are those of the kept points alone, in their order.
+            kx += if keep { p.0 } else { 0.0 };
+            ky += if keep { p.1 } else { 0.0 };
+            kt += if keep { p.2 } else { 0.0 };
+        }
+        let (fit, fit_ss) = if kept < n {
+            if kept < config.min_points {
+                stats.too_few_points += 1;
+                return None;
+            }
+            let kept_points = &subset[..kept];
+            let Some(refit) = Plane::through(kept_points, (kx, ky, kt)) else {
+                stats.bad_fit += 1;
+                return None;
+            };
+            (refit, refit.residual_squares(kept_points))
+        } else {
+            (initial, ss)
+        };
+        if fit.rms_us(fit_ss) > config.max_rms_us
+            || fit.gradient_rel_error(fit_ss) > config.max_gradient_rel_error
+        {
+            stats.bad_fit += 1;
+            return None;
+        }
+        let Some((u, v)) = fit.normal_flow_px_s() else {
+            stats.bad_fit += 1;
+            return None;
+        };
+        let speed = u.hypot(v);
+        if !(speed >= config.min_speed_px_s && speed <= config.max_speed_px_s) {
+            stats.speed_rejected += 1;
+            return None;
+        }
+        let tight = config.tight_residual_us <= 0.0 || {
+            let holds = |plane: &Plane, ss: f64| {
+                plane.rms_us(ss) <= config.max_rms_us
+                    && plane.gradient_rel_error(ss) <= config.max_gradient_rel_error
+                    && plane.normal_flow_px_s().is_some()
+            };
+            if near == n {
+                holds(&initial, ss)
+            } else if near == kept {
+                // Nested sets of one size: the refit's points.
+                holds(&fit, fit_ss)
+            } else if near < config.min_points {
+                false
+            } else {
+                let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
+                let mut m = 0;
+                for &p in points {
+                    let take = initial.residual_us(p).abs() <= tight_us;
+                    subset[m & (BUF_POINTS - 1)] = p;
+                    m += usize::from(take);
+                    sx += if take { p.0 } else { 0.0 };
+                    sy += if take { p.1 } else { 0.0 };
+                    st += if take { p.2 } else { 0.0 };
+                }
+                let near_points = &subset[..m];
+                Plane::through(near_points, (sx, sy, st))
+                    .is_some_and(|t| holds(&t, t.residual_squares(near_points)))
+            }
+        };
+        stats.vectors += 1;
+        if !tight {
+            stats.not_tight += 1;
+        }
+        Some(FlowVector {
+            tight,
+            ..FlowVector::new(e.t_us, x as f64, y as f64, u, v)
+        })
+    }
+}
+
+/// Recent same-polarity neighbours of an event at (x, y) as (dx, dy, dt) relative to
+/// it, row by row, and the sums of their coordinates.
+///
+/// Every pixel of the patch is written to the buffer and counted only when it is
+/// recent: no branch depends on the surface. The x and y sums are sums of small
+/// integers, exact in any order; the time sum is added as an integer when
+/// `INTEGER_TIMES` (windows up to `EXACT_TIME_SUM_WINDOW_US`), else in floating point
+/// in point order with +0 for the other pixels; either way it has the bits of the
+/// sum `fit_plane` adds up.
+#[inline(always)]
+fn gather<const INTEGER_TIMES: bool>(
+    surface: &ActiveEventSurface,
+    e: &Event,
+    x: usize,
+    y: usize,
+    config: &FlowConfig,
+    points: &mut [Point; BUF_POINTS],
+) -> (usize, (f64, f64, f64)) {
+    let r = usize::from(config.radius_px.min(MAX_RADIUS_PX));
+    let (w, h) = (surface.width_px(), surface.height_px());
+    let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
+    let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
+    let plane = surface.plane(e.polarity);
+    let (t_us, window_us) = (e.t_us, config.window_us);
+    let (xf, yf) = (x as f64, y as f64);
+    let mut n = 0;
+    let (mut sx, mut sy, mut st_int) = (0i64, 0i64, 0i64);
+    let mut st = 0.0;
+    for ny in y0..=y1 {
+        let row = &plane[ny * w + x0..=ny * w + x1];
+        let dy = ny as f64 - yf;
+        let dy_int = ny as i64 - y as i64;
+        for (k, &t) in row.iter().enumerate() {
+            let nx = x0 + k;
+            let age_us = t_us.saturating_sub(t);
+            let recent = (t != NEVER_US) & (age_us >= 0) & (age_us <= window_us);
+            // `wrapping_sub` is what `-` does in a release build; a recent pixel's
+            // difference never wraps.
+            let dt = t.wrapping_sub(t_us);
+            let dtf = dt as f64;
+            points[n & (BUF_POINTS - 1)] = (nx as f64 - xf, dy, dtf);
+            let take = i64::from(recent);
+            sx += take * (nx as i64 - x as i64);
+            sy += take * dy_int;
+            if INTEGER_TIMES {
+                st_int += take * dt;
+            } else {
+                st += if recent { dtf } else { 0.0 };
+            }
+            n += usize::from(recent);
+        }
+    }
+    let st = if INTEGER_TIMES { st_int as f64 } else { st };
+    (n, (sx as f64, sy as f64, st))
+}
+
 /// Streaming normal flow: feed events in time order, collect vectors.
 pub struct NormalFlow {
     config: FlowConfig,
-    surface: ActiveEventSurface,
-    stats: FlowStats,
+    engine: Engine,
 }
 
 impl NormalFlow {
     pub fn new(camera: &CameraIntrinsics, config: FlowConfig) -> Self {
         Self {
             config,
-            surface: ActiveEventSurface::new(camera.width_px, camera.height_px),
-            stats: FlowStats::default(),
+            engine: Engine::new(camera.width_px, camera.height_px),
         }
     }
 
@@ -188,19 +444,19 @@ impl NormalFlow {
 
     /// Counters since the last `take_stats`.
     pub fn take_stats(&mut self) -> FlowStats {
-        std::mem::take(&mut self.stats)
+        std::mem::take(&mut self.engine.stats)
     }
 
     /// Forgets the surface, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
-        self.surface.clear();
-        self.stats = FlowStats::default();
+        self.engine.surface.clear();
+        self.engine.stats = FlowStats::default();
     }
 
     /// Processes events in order, appending one vector per event that yields a good fit.
     pub fn process(&mut self, events: &[Event], out: &mut Vec<FlowVector>) {
         for e in events {
-            if let Some(v) = self.process_event(e) {
+            if let Some(v) = self.engine.process_event(e, &self.config) {
                 out.push(v);
             }
         }
@@ -214,147 +470,21 @@ impl NormalFlow {
         if stride == 1 {
             return self.process(events, out);
         }
-        for (i, e) in events.iter().enumerate() {
-            if i % stride == 0 {
-                if let Some(v) = self.process_event(e) {
+        for chunk in events.chunks(stride) {
+            if let Some((first, rest)) = chunk.split_first() {
+                if let Some(v) = self.engine.process_event(first, &self.config) {
                     out.push(v);
                 }
-            } else {
-                self.update_surface(e);
+                for e in rest {
+                    self.engine.update_surface(e, &self.config);
+                }
             }
         }
-    }
-
-    /// An event that is not fitted still marks its pixel, for its neighbours' fits.
-    fn update_surface(&mut self, e: &Event) {
-        self.stats.events += 1;
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        if x >= self.surface.width_px() || y >= self.surface.height_px() {
-            self.stats.out_of_view += 1;
-            return;
-        }
-        let previous_us = self.surface.get(x, y, e.polarity);
-        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
-        {
-            self.stats.refractory += 1;
-            return;
-        }
-        self.surface.set(x, y, e.polarity, e.t_us);
-        self.stats.not_fitted += 1;
     }
 
     /// One event: update the surface, then try a plane fit around it.
     pub fn process_event(&mut self, e: &Event) -> Option<FlowVector> {
-        self.stats.events += 1;
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        if x >= self.surface.width_px() || y >= self.surface.height_px() {
-            self.stats.out_of_view += 1;
-            return None;
-        }
-        let previous_us = self.surface.get(x, y, e.polarity);
-        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
-        {
-            self.stats.refractory += 1;
-            return None;
-        }
-        self.surface.set(x, y, e.polarity, e.t_us);
-
-        let mut points = [(0.0, 0.0, 0.0); MAX_POINTS];
-        let n = self.gather(e, &mut points);
-        if n < self.config.min_points {
-            self.stats.too_few_points += 1;
-            return None;
-        }
-        let Some(initial) = fit_plane(&points[..n]) else {
-            self.stats.bad_fit += 1;
-            return None;
-        };
-        let mut tight_points = points;
-        let mut fit = initial;
-        // One round of outlier rejection: stale or early pixels off the plane.
-        let kept = keep_near(&initial, self.config.outlier_residual_us, &mut points[..n]);
-        if kept < n {
-            if kept < self.config.min_points {
-                self.stats.too_few_points += 1;
-                return None;
-            }
-            let Some(refit) = fit_plane(&points[..kept]) else {
-                self.stats.bad_fit += 1;
-                return None;
-            };
-            fit = refit;
-        }
-        let tight = self.config.tight_residual_us <= 0.0
-            || self.tight_fit_holds(&initial, &mut tight_points[..n]);
-        if fit.rms_us > self.config.max_rms_us
-            || fit.gradient_rel_error > self.config.max_gradient_rel_error
-        {
-            self.stats.bad_fit += 1;
-            return None;
-        }
-        let Some((u, v)) = fit.normal_flow_px_s() else {
-            self.stats.bad_fit += 1;
-            return None;
-        };
-        let speed = u.hypot(v);
-        if !(speed >= self.config.min_speed_px_s && speed <= self.config.max_speed_px_s) {
-            self.stats.speed_rejected += 1;
-            return None;
-        }
-        self.stats.vectors += 1;
-        if !tight {
-            self.stats.not_tight += 1;
-        }
-        Some(FlowVector {
-            tight,
-            ..FlowVector::new(e.t_us, x as f64, y as f64, u, v)
-        })
-    }
-
-    /// Whether the points near `initial` alone make a good plane: at least
-    /// `min_points` within `tight_residual_us` of it, fitting within the RMS and
-    /// gradient limits.
-    fn tight_fit_holds(&self, initial: &PlaneFit, points: &mut [(f64, f64, f64)]) -> bool {
-        let near = keep_near(initial, self.config.tight_residual_us, points);
-        near >= self.config.min_points
-            && fit_plane(&points[..near]).is_some_and(|t| {
-                t.rms_us <= self.config.max_rms_us
-                    && t.gradient_rel_error <= self.config.max_gradient_rel_error
-                    && t.normal_flow_px_s().is_some()
-            })
-    }
-
-    /// Recent same-polarity neighbours as (dx, dy, dt) relative to the event.
-    fn gather(&self, e: &Event, points: &mut [(f64, f64, f64); MAX_POINTS]) -> usize {
-        let r = usize::from(self.config.radius_px.min(MAX_RADIUS_PX));
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        let (x0, x1) = (
-            x.saturating_sub(r),
-            (x + r).min(self.surface.width_px() - 1),
-        );
-        let (y0, y1) = (
-            y.saturating_sub(r),
-            (y + r).min(self.surface.height_px() - 1),
-        );
-        let mut n = 0;
-        for ny in y0..=y1 {
-            for nx in x0..=x1 {
-                let t = self.surface.get(nx, ny, e.polarity);
-                if t == NEVER_US {
-                    continue;
-                }
-                let age_us = e.t_us.saturating_sub(t);
-                if (0..=self.config.window_us).contains(&age_us) {
-                    points[n] = (
-                        nx as f64 - x as f64,
-                        ny as f64 - y as f64,
-                        (t - e.t_us) as f64,
-                    );
-                    n += 1;
-                }
-            }
-        }
-        n
+        self.engine.process_event(e, &self.config)
     }
 }
 

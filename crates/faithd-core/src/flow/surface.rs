@@ -39,6 +39,12 @@ impl ActiveEventSurface {
         self.t_us[self.index(x_px, y_px, polarity)]
     }
 
+    /// The latest times of one polarity, row by row (`y_px * width_px + x_px`).
+    pub fn plane(&self, polarity: Polarity) -> &[i64] {
+        let size = self.width_px * self.height_px;
+        &self.t_us[polarity.index() * size..(polarity.index() + 1) * size]
+    }
+
     /// Stores a new time and returns the previous one.
     pub fn set(&mut self, x_px: usize, y_px: usize, polarity: Polarity, t_us: i64) -> i64 {
         let i = self.index(x_px, y_px, polarity);
