@@ -160,15 +160,18 @@ type Point = (f64, f64, f64);
 const BUF_POINTS: usize = 128;
 const _: () = assert!(BUF_POINTS.is_power_of_two() && BUF_POINTS >= MAX_POINTS);
 
-/// Windows up to this long let the times of a neighbourhood be summed as integers: every
-/// partial sum of at most `MAX_POINTS` times within the window is below 2^53, so the
-/// floating-point sum the plane fit adds up is exact and equals the integer sum.
-const EXACT_TIME_SUM_WINDOW_US: i64 = (1 << 53) / MAX_POINTS as i64;
+/// Windows up to this long let the coordinates of a neighbourhood be summed as
+/// integers: every partial sum of at most `MAX_POINTS` times within the window is
+/// below 2^53 in magnitude, so the floating-point sum the plane fit adds up is exact
+/// and equals the integer sum (the pixel offsets are small integers anyway).
+const EXACT_SUM_WINDOW_US: i64 = (1 << 53) / MAX_POINTS as i64;
 
 /// Scratch space of one event's fit, reused from event to event: a neighbourhood's
-/// points, and the subset a refit or the tight check works on.
+/// points, the same as integers (for exact sums of any subset), and the subset a
+/// refit or the tight check works on.
 struct Scratch {
     points: [Point; BUF_POINTS],
+    integers: [(i64, i64, i64); BUF_POINTS],
     subset: [Point; BUF_POINTS],
 }
 
@@ -176,6 +179,7 @@ impl Scratch {
     fn new() -> Box<Self> {
         Box::new(Self {
             points: [(0.0, 0.0, 0.0); BUF_POINTS],
+            integers: [(0, 0, 0); BUF_POINTS],
             subset: [(0.0, 0.0, 0.0); BUF_POINTS],
         })
     }
@@ -234,18 +238,35 @@ impl Engine {
     }
 
     /// One event: update the surface, then try a plane fit around it.
+    #[inline(always)]
+    fn process_event(&mut self, e: &Event, config: &FlowConfig) -> Option<FlowVector> {
+        if config.window_us <= EXACT_SUM_WINDOW_US {
+            self.process_event_with::<true>(e, config)
+        } else {
+            self.process_event_with::<false>(e, config)
+        }
+    }
+
+    /// `process_event`, with the sums of coordinates added as integers when
+    /// `INTEGER_SUMS` (see `EXACT_SUM_WINDOW_US`).
     ///
     /// The arithmetic is that of `fit_plane` on the points the original per-event code
     /// gathered, in their order, so the vectors are the same to the bit; what changed
-    /// is what is not computed. The coordinate sums are added while gathering (as
-    /// integers where that is exact), the initial fit's residuals are computed once
-    /// for its sum of squares, the outlier rejection and the tight check together, and
-    /// the refit's sums come from the same pass. The tight plane is fitted only for an
-    /// event that yields a vector, and not at all when its points are those of the
-    /// initial fit or of the refit (the same points in the same order give the same
-    /// plane). A fit's RMS and gradient error are computed only when they are checked.
+    /// is what is not computed. The coordinate sums are added while gathering, the
+    /// initial fit's residuals are computed once for its sum of squares, the outlier
+    /// rejection and the tight check together, and the refit's sums come from the same
+    /// pass. The tight plane is fitted only for an event that yields a vector, and not
+    /// at all when its points are those of the initial fit or of the refit (the same
+    /// points in the same order give the same plane). A fit's RMS and gradient error
+    /// are computed only when they are checked. Whether a pixel is recent or a point
+    /// kept depends on the data, so those loops have no branch on it: mispredicted,
+    /// such branches cost more than the fits.
     #[inline(always)]
-    fn process_event(&mut self, e: &Event, config: &FlowConfig) -> Option<FlowVector> {
+    fn process_event_with<const INTEGER_SUMS: bool>(
+        &mut self,
+        e: &Event,
+        config: &FlowConfig,
+    ) -> Option<FlowVector> {
         self.stats.events += 1;
         let (x, y) = match self.mark(e, config.refractory_us) {
             Mark::OutOfView => {
@@ -263,13 +284,13 @@ impl Engine {
             scratch,
             stats,
         } = self;
-        let Scratch { points, subset } = &mut **scratch;
+        let Scratch {
+            points,
+            integers,
+            subset,
+        } = &mut **scratch;
 
-        let (n, sums) = if config.window_us <= EXACT_TIME_SUM_WINDOW_US {
-            gather::<true>(surface, e, x, y, config, points)
-        } else {
-            gather::<false>(surface, e, x, y, config, points)
-        };
+        let (n, sums) = gather::<INTEGER_SUMS>(surface, e, x, y, config, points, integers);
         if n < config.min_points {
             stats.too_few_points += 1;
             return None;
@@ -285,19 +306,26 @@ impl Engine {
         let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
         let mut ss = 0.0;
         let (mut kept, mut near) = (0, 0);
-        let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
-        for &p in points {
+        let (mut kx, mut ky, mut kt) = (0i64, 0i64, 0i64);
+        let (mut kxf, mut kyf, mut ktf) = (0.0, 0.0, 0.0);
+        for (i, &p) in points.iter().enumerate() {
             let r = initial.residual_us(p);
             ss += r * r;
             let keep = r.abs() <= outlier_us;
             near += usize::from(r.abs() <= tight_us);
             subset[kept & (BUF_POINTS - 1)] = p;
             kept += usize::from(keep);
-            // Adding +0 leaves a sum's bits as they are (it is never -0): the sums
-            // are those of the kept points alone, in their order.
-            kx += if keep { p.0 } else { 0.0 };
-            ky += if keep { p.1 } else { 0.0 };
-            kt += if keep { p.2 } else { 0.0 };
+            if INTEGER_SUMS {
+                let mask = -i64::from(keep);
+                let (ix, iy, it) = integers[i & (BUF_POINTS - 1)];
+                kx += ix & mask;
+                ky += iy & mask;
+                kt += it & mask;
+            } else {
+                kxf += masked(p.0, keep);
+                kyf += masked(p.1, keep);
+                ktf += masked(p.2, keep);
+            }
         }
         let (fit, fit_ss) = if kept < n {
             if kept < config.min_points {
@@ -305,7 +333,12 @@ impl Engine {
                 return None;
             }
             let kept_points = &subset[..kept];
-            let Some(refit) = Plane::through(kept_points, (kx, ky, kt)) else {
+            let kept_sums = if INTEGER_SUMS {
+                (kx as f64, ky as f64, kt as f64)
+            } else {
+                (kxf, kyf, ktf)
+            };
+            let Some(refit) = Plane::through(kept_points, kept_sums) else {
                 stats.bad_fit += 1;
                 return None;
             };
@@ -342,15 +375,17 @@ impl Engine {
             } else if near < config.min_points {
                 false
             } else {
+                // Rare (a vector whose tight set differs from both fits' sets): the
+                // floating-point sums, exact in both cases.
                 let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
                 let mut m = 0;
                 for &p in points {
                     let take = initial.residual_us(p).abs() <= tight_us;
                     subset[m & (BUF_POINTS - 1)] = p;
                     m += usize::from(take);
-                    sx += if take { p.0 } else { 0.0 };
-                    sy += if take { p.1 } else { 0.0 };
-                    st += if take { p.2 } else { 0.0 };
+                    sx += masked(p.0, take);
+                    sy += masked(p.1, take);
+                    st += masked(p.2, take);
                 }
                 let near_points = &subset[..m];
                 Plane::through(near_points, (sx, sy, st))
@@ -368,60 +403,92 @@ impl Engine {
     }
 }
 
-/// Recent same-polarity neighbours of an event at (x, y) as (dx, dy, dt) relative to
-/// it, row by row, and the sums of their coordinates.
-///
-/// Every pixel of the patch is written to the buffer and counted only when it is
-/// recent: no branch depends on the surface. The x and y sums are sums of small
-/// integers, exact in any order; the time sum is added as an integer when
-/// `INTEGER_TIMES` (windows up to `EXACT_TIME_SUM_WINDOW_US`), else in floating point
-/// in point order with +0 for the other pixels; either way it has the bits of the
-/// sum `fit_plane` adds up.
+/// `value` where `keep`, else +0 or -0: adding either zero to a sum that is not -0 (a
+/// sum started at +0 never is) leaves the sum's bits as they are, so a masked sum over
+/// all points equals the sum over the kept ones in their order.
 #[inline(always)]
-fn gather<const INTEGER_TIMES: bool>(
+fn masked(value: f64, keep: bool) -> f64 {
+    value * f64::from(u8::from(keep))
+}
+
+/// Recent same-polarity neighbours of an event at (x, y) as (dx, dy, dt) relative to
+/// it, row by row, and the sums of their coordinates in that order.
+///
+/// Every pixel of the patch is written to the buffers and counted only when it is
+/// recent. With `INTEGER_SUMS` the sums are added as integers (exact, see
+/// `EXACT_SUM_WINDOW_US`) and `integers` gets the points too; else in floating point
+/// in point order, with a zero for the other pixels (see `masked`).
+#[inline(always)]
+fn gather<const INTEGER_SUMS: bool>(
     surface: &ActiveEventSurface,
     e: &Event,
     x: usize,
     y: usize,
     config: &FlowConfig,
     points: &mut [Point; BUF_POINTS],
+    integers: &mut [(i64, i64, i64); BUF_POINTS],
 ) -> (usize, (f64, f64, f64)) {
     let r = usize::from(config.radius_px.min(MAX_RADIUS_PX));
     let (w, h) = (surface.width_px(), surface.height_px());
     let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
     let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
+    // A pixel is recent when it has fired (not `NEVER_US`, which is `i64::MIN`) and
+    // `0 <= t_us.saturating_sub(t) <= window_us`: when `t` lies in `oldest_us..=t_us`.
+    // One unsigned comparison tests that (offsets from `oldest_us` that wrap are huge).
+    // A window of `i64::MAX` takes every earlier time, however far the saturated age.
+    let t_us = e.t_us;
+    let oldest_us = if config.window_us == i64::MAX {
+        NEVER_US + 1
+    } else {
+        t_us.saturating_sub(config.window_us).max(NEVER_US + 1)
+    };
+    let span_us = if config.window_us < 0 || t_us < oldest_us {
+        None
+    } else {
+        Some(t_us.wrapping_sub(oldest_us) as u64)
+    };
+    let Some(span_us) = span_us else {
+        return (0, (0.0, 0.0, 0.0));
+    };
     let plane = surface.plane(e.polarity);
-    let (t_us, window_us) = (e.t_us, config.window_us);
     let (xf, yf) = (x as f64, y as f64);
     let mut n = 0;
-    let (mut sx, mut sy, mut st_int) = (0i64, 0i64, 0i64);
-    let mut st = 0.0;
+    let (mut sx, mut sy, mut st) = (0i64, 0i64, 0i64);
+    let (mut sxf, mut syf, mut stf) = (0.0, 0.0, 0.0);
     for ny in y0..=y1 {
         let row = &plane[ny * w + x0..=ny * w + x1];
         let dy = ny as f64 - yf;
         let dy_int = ny as i64 - y as i64;
         for (k, &t) in row.iter().enumerate() {
             let nx = x0 + k;
-            let age_us = t_us.saturating_sub(t);
-            let recent = (t != NEVER_US) & (age_us >= 0) & (age_us <= window_us);
+            let recent = (t.wrapping_sub(oldest_us) as u64) <= span_us;
             // `wrapping_sub` is what `-` does in a release build; a recent pixel's
             // difference never wraps.
             let dt = t.wrapping_sub(t_us);
+            let dx = nx as f64 - xf;
             let dtf = dt as f64;
-            points[n & (BUF_POINTS - 1)] = (nx as f64 - xf, dy, dtf);
-            let take = i64::from(recent);
-            sx += take * (nx as i64 - x as i64);
-            sy += take * dy_int;
-            if INTEGER_TIMES {
-                st_int += take * dt;
+            let slot = n & (BUF_POINTS - 1);
+            points[slot] = (dx, dy, dtf);
+            if INTEGER_SUMS {
+                let dx_int = nx as i64 - x as i64;
+                integers[slot] = (dx_int, dy_int, dt);
+                let mask = -i64::from(recent);
+                sx += dx_int & mask;
+                sy += dy_int & mask;
+                st += dt & mask;
             } else {
-                st += if recent { dtf } else { 0.0 };
+                sxf += masked(dx, recent);
+                syf += masked(dy, recent);
+                stf += masked(dtf, recent);
             }
             n += usize::from(recent);
         }
     }
-    let st = if INTEGER_TIMES { st_int as f64 } else { st };
-    (n, (sx as f64, sy as f64, st))
+    if INTEGER_SUMS {
+        (n, (sx as f64, sy as f64, st as f64))
+    } else {
+        (n, (sxf, syf, stf))
+    }
 }
 
 /// Streaming normal flow: feed events in time order, collect vectors.
