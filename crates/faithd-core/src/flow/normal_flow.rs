@@ -306,21 +306,19 @@ impl Engine {
         let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
         let mut ss = 0.0;
         let (mut kept, mut near) = (0, 0);
-        let (mut kx, mut ky, mut kt) = (0i64, 0i64, 0i64);
         let (mut kxf, mut kyf, mut ktf) = (0.0, 0.0, 0.0);
         for (i, &p) in points.iter().enumerate() {
             let r = initial.residual_us(p);
             ss += r * r;
             let keep = r.abs() <= outlier_us;
             near += usize::from(r.abs() <= tight_us);
-            subset[kept & (BUF_POINTS - 1)] = p;
+            let slot = kept & (BUF_POINTS - 1);
+            subset[slot] = p;
             kept += usize::from(keep);
             if INTEGER_SUMS {
-                let mask = -i64::from(keep);
-                let (ix, iy, it) = integers[i & (BUF_POINTS - 1)];
-                kx += ix & mask;
-                ky += iy & mask;
-                kt += it & mask;
+                // Summed below, over the kept ones: a sum masked here becomes a
+                // branch (the compiler's choice) that is mispredicted.
+                integers[slot] = integers[i & (BUF_POINTS - 1)];
             } else {
                 kxf += masked(p.0, keep);
                 kyf += masked(p.1, keep);
@@ -334,6 +332,12 @@ impl Engine {
             }
             let kept_points = &subset[..kept];
             let kept_sums = if INTEGER_SUMS {
+                let (mut kx, mut ky, mut kt) = (0i64, 0i64, 0i64);
+                for &(ix, iy, it) in &integers[..kept] {
+                    kx += ix;
+                    ky += iy;
+                    kt += it;
+                }
                 (kx as f64, ky as f64, kt as f64)
             } else {
                 (kxf, kyf, ktf)
