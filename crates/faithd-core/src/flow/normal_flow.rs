@@ -166,12 +166,28 @@ const _: () = assert!(BUF_POINTS.is_power_of_two() && BUF_POINTS >= MAX_POINTS);
 /// and equals the integer sum (the pixel offsets are small integers anyway).
 const EXACT_SUM_WINDOW_US: i64 = (1 << 53) / MAX_POINTS as i64;
 
+/// A point's pixel offsets packed in one integer, `(dx + 8) + (dy + 8) << 32`: sums of
+/// up to `MAX_POINTS` of them hold the sums of both offsets (plus 8 per point) without
+/// carrying from one half into the other.
+type PackedOffsets = i64;
+const OFFSET_BIAS: i64 = 8;
+const _: () = assert!(MAX_POINTS as i64 * (2 * OFFSET_BIAS) < 1 << 31);
+
+/// The sums of a packed offsets sum's `points` points, as the plane fit takes them.
+fn unpack_offset_sums(packed: PackedOffsets, points: usize) -> (f64, f64) {
+    let bias = OFFSET_BIAS * points as i64;
+    (
+        ((packed & 0xffff_ffff) - bias) as f64,
+        ((packed >> 32) - bias) as f64,
+    )
+}
+
 /// Scratch space of one event's fit, reused from event to event: a neighbourhood's
-/// points, the same as integers (for exact sums of any subset), and the subset a
-/// refit or the tight check works on.
+/// points, the same as integers (packed offsets and time, for exact sums of any
+/// subset), and the subset a refit or the tight check works on.
 struct Scratch {
     points: [Point; BUF_POINTS],
-    integers: [(i64, i64, i64); BUF_POINTS],
+    integers: [(PackedOffsets, i64); BUF_POINTS],
     subset: [Point; BUF_POINTS],
 }
 
@@ -179,7 +195,7 @@ impl Scratch {
     fn new() -> Box<Self> {
         Box::new(Self {
             points: [(0.0, 0.0, 0.0); BUF_POINTS],
-            integers: [(0, 0, 0); BUF_POINTS],
+            integers: [(0, 0); BUF_POINTS],
             subset: [(0.0, 0.0, 0.0); BUF_POINTS],
         })
     }
@@ -300,31 +316,12 @@ impl Engine {
             stats.bad_fit += 1;
             return None;
         };
-        // The initial fit's residuals: its sum of squares, one round of outlier
-        // rejection (stale or early pixels off the plane) with the refit's sums, and
-        // the size of the tight check's set.
-        let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
-        let mut ss = 0.0;
-        let (mut kept, mut near) = (0, 0);
-        let (mut kxf, mut kyf, mut ktf) = (0.0, 0.0, 0.0);
-        for (i, &p) in points.iter().enumerate() {
-            let r = initial.residual_us(p);
-            ss += r * r;
-            let keep = r.abs() <= outlier_us;
-            near += usize::from(r.abs() <= tight_us);
-            let slot = kept & (BUF_POINTS - 1);
-            subset[slot] = p;
-            kept += usize::from(keep);
-            if INTEGER_SUMS {
-                // Summed below, over the kept ones: a sum masked here becomes a
-                // branch (the compiler's choice) that is mispredicted.
-                integers[slot] = integers[i & (BUF_POINTS - 1)];
-            } else {
-                kxf += masked(p.0, keep);
-                kyf += masked(p.1, keep);
-                ktf += masked(p.2, keep);
-            }
-        }
+        let Rejection {
+            ss,
+            kept,
+            near,
+            kept_sums: float_kept_sums,
+        } = reject_outliers::<INTEGER_SUMS>(&initial, points, integers, subset, config);
         let (fit, fit_ss) = if kept < n {
             if kept < config.min_points {
                 stats.too_few_points += 1;
@@ -332,15 +329,15 @@ impl Engine {
             }
             let kept_points = &subset[..kept];
             let kept_sums = if INTEGER_SUMS {
-                let (mut kx, mut ky, mut kt) = (0i64, 0i64, 0i64);
-                for &(ix, iy, it) in &integers[..kept] {
-                    kx += ix;
-                    ky += iy;
-                    kt += it;
+                let (mut kxy, mut kt) = (0, 0);
+                for &(xy, t) in &integers[..kept] {
+                    kxy += xy;
+                    kt += t;
                 }
-                (kx as f64, ky as f64, kt as f64)
+                let (kx, ky) = unpack_offset_sums(kxy, kept);
+                (kx, ky, kt as f64)
             } else {
-                (kxf, kyf, ktf)
+                float_kept_sums
             };
             let Some(refit) = Plane::through(kept_points, kept_sums) else {
                 stats.bad_fit += 1;
@@ -384,7 +381,7 @@ impl Engine {
                 let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
                 let mut m = 0;
                 for &p in points {
-                    let take = initial.residual_us(p).abs() <= tight_us;
+                    let take = initial.residual_us(p).abs() <= config.tight_residual_us;
                     subset[m & (BUF_POINTS - 1)] = p;
                     m += usize::from(take);
                     sx += masked(p.0, take);
@@ -404,6 +401,63 @@ impl Engine {
             tight,
             ..FlowVector::new(e.t_us, x as f64, y as f64, u, v)
         })
+    }
+}
+
+/// What the initial fit's residuals tell.
+struct Rejection {
+    /// Sum of the squared residuals.
+    ss: f64,
+    /// Points within `outlier_residual_us`, now at the front of the subset (and of the
+    /// integers with `INTEGER_SUMS`).
+    kept: usize,
+    /// Points within `tight_residual_us`.
+    near: usize,
+    /// The kept points' coordinate sums, without `INTEGER_SUMS` only.
+    kept_sums: (f64, f64, f64),
+}
+
+/// The initial fit's residuals, computed once for its sum of squares, one round of
+/// outlier rejection (stale or early pixels off the plane) and the size of the tight
+/// check's set.
+///
+/// Not inlined: in the event's code the compiler spilled the sum of squares to memory
+/// in this loop, which made it twice as slow.
+#[inline(never)]
+fn reject_outliers<const INTEGER_SUMS: bool>(
+    initial: &Plane,
+    points: &[Point],
+    integers: &mut [(PackedOffsets, i64); BUF_POINTS],
+    subset: &mut [Point; BUF_POINTS],
+    config: &FlowConfig,
+) -> Rejection {
+    let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
+    let mut ss = 0.0;
+    let (mut kept, mut near) = (0, 0);
+    let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
+    for (i, &p) in points.iter().enumerate() {
+        let r = initial.residual_us(p);
+        ss += r * r;
+        let keep = r.abs() <= outlier_us;
+        near += usize::from(r.abs() <= tight_us);
+        let slot = kept & (BUF_POINTS - 1);
+        subset[slot] = p;
+        kept += usize::from(keep);
+        if INTEGER_SUMS {
+            // Summed by the caller, over the kept ones: a sum masked here becomes a
+            // branch (the compiler's choice) that is mispredicted.
+            integers[slot] = integers[i & (BUF_POINTS - 1)];
+        } else {
+            kx += masked(p.0, keep);
+            ky += masked(p.1, keep);
+            kt += masked(p.2, keep);
+        }
+    }
+    Rejection {
+        ss,
+        kept,
+        near,
+        kept_sums: (kx, ky, kt),
     }
 }
 
@@ -430,7 +484,7 @@ fn gather<const INTEGER_SUMS: bool>(
     y: usize,
     config: &FlowConfig,
     points: &mut [Point; BUF_POINTS],
-    integers: &mut [(i64, i64, i64); BUF_POINTS],
+    integers: &mut [(PackedOffsets, i64); BUF_POINTS],
 ) -> (usize, (f64, f64, f64)) {
     let r = usize::from(config.radius_px.min(MAX_RADIUS_PX));
     let (w, h) = (surface.width_px(), surface.height_px());
@@ -457,28 +511,27 @@ fn gather<const INTEGER_SUMS: bool>(
     let plane = surface.plane(e.polarity);
     let (xf, yf) = (x as f64, y as f64);
     let mut n = 0;
-    let (mut sx, mut sy, mut st) = (0i64, 0i64, 0i64);
+    let (mut sxy, mut st) = (0, 0);
     let (mut sxf, mut syf, mut stf) = (0.0, 0.0, 0.0);
     for ny in y0..=y1 {
         let row = &plane[ny * w + x0..=ny * w + x1];
         let dy = ny as f64 - yf;
-        let dy_int = ny as i64 - y as i64;
-        for (k, &t) in row.iter().enumerate() {
-            let nx = x0 + k;
+        // dx and the packed offsets step by one along the row.
+        let mut dx = x0 as f64 - xf;
+        let xy0: PackedOffsets =
+            (x0 as i64 - x as i64 + OFFSET_BIAS) + ((ny as i64 - y as i64 + OFFSET_BIAS) << 32);
+        for (xy, &t) in (xy0..).zip(row) {
             let recent = (t.wrapping_sub(oldest_us) as u64) <= span_us;
             // `wrapping_sub` is what `-` does in a release build; a recent pixel's
             // difference never wraps.
             let dt = t.wrapping_sub(t_us);
-            let dx = nx as f64 - xf;
             let dtf = dt as f64;
             let slot = n & (BUF_POINTS - 1);
             points[slot] = (dx, dy, dtf);
             if INTEGER_SUMS {
-                let dx_int = nx as i64 - x as i64;
-                integers[slot] = (dx_int, dy_int, dt);
+                integers[slot] = (xy, dt);
                 let mask = -i64::from(recent);
-                sx += dx_int & mask;
-                sy += dy_int & mask;
+                sxy += xy & mask;
                 st += dt & mask;
             } else {
                 sxf += masked(dx, recent);
@@ -486,10 +539,12 @@ fn gather<const INTEGER_SUMS: bool>(
                 stf += masked(dtf, recent);
             }
             n += usize::from(recent);
+            dx += 1.0;
         }
     }
     if INTEGER_SUMS {
-        (n, (sx as f64, sy as f64, st as f64))
+        let (sx, sy) = unpack_offset_sums(sxy, n);
+        (n, (sx, sy, st as f64))
     } else {
         (n, (sxf, syf, stf))
     }
