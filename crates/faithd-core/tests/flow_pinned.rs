@@ -350,8 +350,27 @@ fn window_sizes(mode: Mode, total: usize) -> Vec<(usize, usize)> {
 
 /// One line per (stream, config, mode): vector count, digest of vectors and window
 /// stats, and the stats summed over the stream.
-fn run(stream: &Stream, config: FlowConfig, mode: Mode, out: &mut Vec<FlowVector>) -> String {
-    let mut flow = NormalFlow::new(&stream.camera, config);
+/// Threads a flow may use, and the window size from which it uses them.
+#[derive(Clone, Copy)]
+struct Threads {
+    count: usize,
+    min_events: usize,
+}
+
+const ONE_THREAD: Threads = Threads {
+    count: 1,
+    min_events: usize::MAX,
+};
+
+fn run(
+    stream: &Stream,
+    config: FlowConfig,
+    mode: Mode,
+    threads: Threads,
+    out: &mut Vec<FlowVector>,
+) -> String {
+    let mut flow = NormalFlow::with_threads(&stream.camera, config, threads.count);
+    flow.set_parallel_min_events(threads.min_events);
     let mut digest = Digest::new();
     let mut total = FlowStats::default();
     let mut start = 0;
@@ -415,13 +434,13 @@ fn modes() -> [(&'static str, Mode); 4] {
     ]
 }
 
-fn cases() -> Vec<String> {
+fn cases(threads: Threads) -> Vec<String> {
     let mut lines = Vec::new();
     let mut out = Vec::new();
     for stream in streams() {
         for (config_name, config) in configs() {
             for (mode_name, mode) in modes() {
-                let line = run(&stream, config, mode, &mut out);
+                let line = run(&stream, config, mode, threads, &mut out);
                 lines.push(format!("{} {config_name} {mode_name}: {line}", stream.name));
             }
         }
@@ -433,16 +452,8 @@ fn printing() -> bool {
     std::env::var_os("PRINT_PINNED").is_some()
 }
 
-#[test]
-fn flow_is_bit_identical_to_the_pinned_code() {
-    let got = cases();
-    if printing() {
-        println!("const PINNED: &[&str] = &[");
-        for line in &got {
-            println!("    {line:?},");
-        }
-        println!("];");
-    }
+/// Compares every case's line with the pinned one.
+fn check(got: &[String]) {
     assert_eq!(got.len(), PINNED.len(), "case count");
     let mut failed = Vec::new();
     for (g, p) in got.iter().zip(PINNED) {
@@ -451,6 +462,43 @@ fn flow_is_bit_identical_to_the_pinned_code() {
         }
     }
     assert!(failed.is_empty(), "{}", failed.join("\n"));
+}
+
+#[test]
+fn flow_is_bit_identical_to_the_pinned_code() {
+    let got = cases(ONE_THREAD);
+    if printing() {
+        println!("const PINNED: &[&str] = &[");
+        for line in &got {
+            println!("    {line:?},");
+        }
+        println!("];");
+    }
+    check(&got);
+}
+
+/// Every window on two tiles, each on its own thread.
+#[test]
+fn two_threads_are_bit_identical_to_the_pinned_code() {
+    check(&cases(Threads {
+        count: 2,
+        min_events: 0,
+    }));
+}
+
+/// Windows switching between threads and the calling thread with their size (the
+/// mixed windows run from 3 to 30,000 events), on two and on three tiles whose
+/// boundaries follow the events.
+#[test]
+fn threads_by_window_size_are_bit_identical_to_the_pinned_code() {
+    check(&cases(Threads {
+        count: 2,
+        min_events: 1_000,
+    }));
+    check(&cases(Threads {
+        count: 3,
+        min_events: 300,
+    }));
 }
 
 /// The streams are what the digests were computed on: a change to the generators

@@ -51,6 +51,17 @@ impl ActiveEventSurface {
         std::mem::replace(&mut self.t_us[i], t_us)
     }
 
+    /// Copies one column, both polarities, from a surface of the same size.
+    pub fn copy_column_from(&mut self, other: &Self, x_px: usize) {
+        debug_assert_eq!(
+            (self.width_px, self.height_px),
+            (other.width_px, other.height_px)
+        );
+        for i in (x_px..self.t_us.len()).step_by(self.width_px) {
+            self.t_us[i] = other.t_us[i];
+        }
+    }
+
     /// Forgets every event (a new flight, or a camera that reconnected).
     pub fn clear(&mut self) {
         self.t_us.fill(NEVER_US);
