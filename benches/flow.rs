@@ -2,9 +2,13 @@
 //!
 //! `cargo bench --bench flow`; criterion prints the throughput in elements (events)/s.
 //! `looming_pole_scene` is the pole of `tests/pipeline.rs` with noise (67k events in
-//! 0.5 s); `dense_pole_scene` is the same flight past five times the edges (about 5
-//! times the events in the same time, a DVS240 near its peak rate), where the
-//! surface is busier and more neighbourhoods hold enough points for a fit.
+//! 0.5 s); `dense_pole_scene` is the same flight past five times the edges (290k
+//! events), where the surface is busier and more neighbourhoods hold enough points
+//! for a fit. Both run on one thread and, as `..._2_threads`, on two (one window of the
+//! whole stream, above `parallel_min_events`). `peak_windows` feeds the dense scene
+//! as the daemon would at a DVS240's peak rate of 12 million events per second: 10 ms
+//! windows of 120k events, at most 2000 fits each (the default cap), so that mostly
+//! surface updates are measured.
 
 use std::hint::black_box;
 
@@ -25,18 +29,42 @@ fn scene(edges_factor: usize) -> Vec<Event> {
     looming_edge_events(&cam, &scene, 1)
 }
 
+/// Events per window at 12 million events per second and 100 windows per second.
+const PEAK_WINDOW_EVENTS: usize = 120_000;
+
 fn bench_flow(c: &mut Criterion) {
     let cam = CameraIntrinsics::dvs240();
+    let config = FlowConfig::default();
     let mut group = c.benchmark_group("normal_flow");
-    for (name, edges_factor) in [("looming_pole_scene", 1), ("dense_pole_scene", 5)] {
-        let events = scene(edges_factor);
+    let looming = scene(1);
+    let dense = scene(5);
+    for (name, events, threads, window) in [
+        ("looming_pole_scene", &looming, 1, None),
+        ("dense_pole_scene", &dense, 1, None),
+        ("looming_pole_scene_2_threads", &looming, 2, None),
+        ("dense_pole_scene_2_threads", &dense, 2, None),
+        ("peak_windows", &dense, 1, Some(PEAK_WINDOW_EVENTS)),
+        (
+            "peak_windows_2_threads",
+            &dense,
+            2,
+            Some(PEAK_WINDOW_EVENTS),
+        ),
+    ] {
         group.throughput(Throughput::Elements(events.len() as u64));
         let mut out = Vec::with_capacity(events.len());
         group.bench_function(name, |b| {
             b.iter(|| {
-                let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+                let mut flow = NormalFlow::with_threads(&cam, config, threads);
                 out.clear();
-                flow.process(black_box(&events), &mut out);
+                match window {
+                    None => flow.process(black_box(events), &mut out),
+                    Some(size) => {
+                        for w in events.chunks(size) {
+                            flow.process_window(black_box(w), config.max_fits_per_window, &mut out);
+                        }
+                    }
+                }
                 black_box(out.len())
             })
         });
