@@ -60,42 +60,73 @@ struct Tile {
     engine: Engine,
     /// The columns whose events it processes.
     columns: Range<usize>,
+    /// What it does with an event, by column (and one more for events beyond the
+    /// sensor's right edge).
+    roles: Vec<Role>,
+    /// The events of the window being run that it handles, as `Entry` values.
+    entries: Vec<u32>,
     /// Vectors of the last window run on threads, with their events' indices.
     found: Vec<(usize, FlowVector)>,
 }
 
+/// What a tile does with the events of a column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Role {
+    Skip,
+    Process,
+    Mark,
+}
+
+/// An entry of `Tile::entries`: the event's index in the window, with flags.
+struct Entry;
+
+impl Entry {
+    const MARK: u32 = 1 << 31;
+    const FIT: u32 = 1 << 30;
+    const INDEX: u32 = Self::FIT - 1;
+}
+
+/// Windows run on threads have fewer events than this: their indices fit an `Entry`.
+const MAX_THREADED_EVENTS: usize = Entry::INDEX as usize;
+
 impl Tile {
-    /// One window on this tile (number `t`): its events processed (fitted at every
-    /// `stride`-th event of the window), its halo's marked, the others skipped.
-    fn run(
-        &mut self,
-        t: usize,
-        columns: &[Column],
-        events: &[Event],
-        stride: usize,
-        config: &FlowConfig,
-    ) {
-        self.found.clear();
-        let last = columns.len() - 1;
-        let engine = &mut self.engine;
+    /// One window on this tile: its events processed (fitted at every `stride`-th
+    /// event of the window), its halo's marked, the others skipped.
+    ///
+    /// First the tile's events are listed, without a branch on whose they are (every
+    /// event is written, only the tile's kept): the columns of consecutive events are
+    /// random, and that branch was mispredicted about every other event.
+    fn run(&mut self, events: &[Event], stride: usize, config: &FlowConfig) {
+        debug_assert!(events.len() <= MAX_THREADED_EVENTS);
+        let last = self.roles.len() - 1;
+        self.entries.clear();
+        self.entries.resize(events.len(), 0);
+        let mut n = 0;
         let mut phase = 0;
         for (i, e) in events.iter().enumerate() {
+            let role = self.roles[usize::from(e.x_px).min(last)];
             let fit = phase == 0;
             phase += 1;
             if phase == stride {
                 phase = 0;
             }
-            let column = columns[usize::from(e.x_px).min(last)];
-            if usize::from(column.owner) == t {
-                if fit {
-                    if let Some(v) = engine.process_event(e, config) {
-                        self.found.push((i, v));
-                    }
-                } else {
-                    engine.update_surface(e, config);
-                }
-            } else if column.marked_by(t) {
+            self.entries[n] =
+                i as u32 | (u32::from(role == Role::Mark) << 31) | (u32::from(fit) << 30);
+            n += usize::from(role != Role::Skip);
+        }
+        self.found.clear();
+        let engine = &mut self.engine;
+        for &entry in &self.entries[..n] {
+            let i = (entry & Entry::INDEX) as usize;
+            let e = &events[i];
+            if entry & Entry::MARK != 0 {
                 engine.mark(e, config.refractory_us);
+            } else if entry & Entry::FIT != 0 {
+                if let Some(v) = engine.process_event(e, config) {
+                    self.found.push((i, v));
+                }
+            } else {
+                engine.update_surface(e, config);
             }
         }
     }
@@ -124,6 +155,8 @@ impl Tiles {
             .map(|t| Tile {
                 engine: Engine::new(width_px, height_px),
                 columns: t * width / count..(t + 1) * width / count,
+                roles: vec![Role::Skip; width + 1],
+                entries: Vec::new(),
                 found: Vec::new(),
             })
             .collect();
@@ -168,7 +201,7 @@ impl Tiles {
         }
     }
 
-    /// Fills `columns` from the tiles' column ranges.
+    /// Fills `columns` and the tiles' roles from the tiles' column ranges.
     fn assign_columns(&mut self) {
         let r = self.radius_px;
         let count = self.tiles.len();
@@ -186,6 +219,17 @@ impl Tiles {
             left_marks: false,
             right_marks: false,
         };
+        for (t, tile) in self.tiles.iter_mut().enumerate() {
+            for (role, column) in tile.roles.iter_mut().zip(&self.columns) {
+                *role = if usize::from(column.owner) == t {
+                    Role::Process
+                } else if column.marked_by(t) {
+                    Role::Mark
+                } else {
+                    Role::Skip
+                };
+            }
+        }
     }
 
     /// Processes one window, fitting every `stride`-th event (the first included).
@@ -198,7 +242,7 @@ impl Tiles {
     ) {
         if self.tiles.len() == 1 {
             self.run_single(events, stride, config, out);
-        } else if events.len() >= self.parallel_min_events {
+        } else if events.len() >= self.parallel_min_events && events.len() <= MAX_THREADED_EVENTS {
             self.balance(events, stride);
             self.run_threads(events, stride, config, out);
         } else {
@@ -268,13 +312,12 @@ impl Tiles {
         config: &FlowConfig,
         out: &mut Vec<FlowVector>,
     ) {
-        let columns = &self.columns[..];
         let (first, others) = self.tiles.split_first_mut().expect("at least one tile");
         std::thread::scope(|scope| {
-            for (t, tile) in others.iter_mut().enumerate() {
-                scope.spawn(move || tile.run(t + 1, columns, events, stride, config));
+            for tile in others {
+                scope.spawn(move || tile.run(events, stride, config));
             }
-            first.run(0, columns, events, stride, config);
+            first.run(events, stride, config);
         });
         // A k-way merge on the event index; k is small.
         let mut heads = vec![0; self.tiles.len()];
