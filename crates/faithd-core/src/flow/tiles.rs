@@ -11,8 +11,8 @@
 //! surface. Below `parallel_min_events` events a window runs on the calling thread,
 //! event by event, on the same tiles.
 //!
-//! The tile boundaries follow the events: before a window that runs on threads they
-//! move to where each tile gets an equal share of the window's work (when that lowers
+//! The tile boundaries follow the events: after a window that ran on threads they
+//! move to where each tile would have had an equal share of its work (when that lowers
 //! the largest share by a tenth), and the columns a tile newly needs are copied in
 //! from the tile that owned them.
 
@@ -27,9 +27,8 @@ use crate::event::Event;
 /// of at most the tiles on either side of its owner.
 const MIN_TILE_WIDTH_PX: usize = 2 * MAX_RADIUS_PX as usize + 1;
 
-/// A fitted event costs about as much as this many surface updates (measured on the
-/// bench scenes: 100 to 150 ns against 2 to 5 ns); it weighs the split.
-const FIT_WEIGHT: u64 = 30;
+/// Events the split of a window's work looks at.
+const BALANCE_SAMPLES: usize = 4_096;
 
 /// Windows with at least this many events run on threads (when there is more than one
 /// tile): starting and joining a thread costs about 25 us here, and below this the
@@ -63,7 +62,8 @@ struct Tile {
     /// What it does with an event, by column (and one more for events beyond the
     /// sensor's right edge).
     roles: Vec<Role>,
-    /// The events of the window being run that it handles, as `Entry` values.
+    /// The events of the window being run that it handles, as `Entry` values (and
+    /// more: it only grows).
     entries: Vec<u32>,
     /// Vectors of the last window run on threads, with their events' indices.
     found: Vec<(usize, FlowVector)>,
@@ -92,26 +92,44 @@ const MAX_THREADED_EVENTS: usize = Entry::INDEX as usize;
 impl Tile {
     /// One window on this tile: its events processed (fitted at every `stride`-th
     /// event of the window), its halo's marked, the others skipped.
+    fn run(&mut self, events: &[Event], stride: usize, config: &FlowConfig) {
+        if stride == 1 {
+            self.run_with::<true>(events, stride, config);
+        } else {
+            self.run_with::<false>(events, stride, config);
+        }
+    }
+
+    /// `run`, knowing whether every event is fitted (`ALL_FITTED`, a stride of 1).
     ///
     /// First the tile's events are listed, without a branch on whose they are (every
     /// event is written, only the tile's kept): the columns of consecutive events are
     /// random, and that branch was mispredicted about every other event.
-    fn run(&mut self, events: &[Event], stride: usize, config: &FlowConfig) {
+    fn run_with<const ALL_FITTED: bool>(
+        &mut self,
+        events: &[Event],
+        stride: usize,
+        config: &FlowConfig,
+    ) {
         debug_assert!(events.len() <= MAX_THREADED_EVENTS);
-        let last = self.roles.len() - 1;
-        self.entries.clear();
-        self.entries.resize(events.len(), 0);
+        if self.entries.len() < events.len() {
+            self.entries.resize(events.len(), 0);
+        }
+        let (roles, entries) = (&self.roles[..], &mut self.entries[..]);
+        let last = roles.len() - 1;
         let mut n = 0;
         let mut phase = 0;
         for (i, e) in events.iter().enumerate() {
-            let role = self.roles[usize::from(e.x_px).min(last)];
-            let fit = phase == 0;
-            phase += 1;
-            if phase == stride {
-                phase = 0;
+            let column = usize::from(e.x_px).min(last);
+            let role = roles[column];
+            let fit = ALL_FITTED || phase == 0;
+            if !ALL_FITTED {
+                phase += 1;
+                if phase == stride {
+                    phase = 0;
+                }
             }
-            self.entries[n] =
-                i as u32 | (u32::from(role == Role::Mark) << 31) | (u32::from(fit) << 30);
+            entries[n] = i as u32 | (u32::from(role == Role::Mark) << 31) | (u32::from(fit) << 30);
             n += usize::from(role != Role::Skip);
         }
         self.found.clear();
@@ -121,7 +139,7 @@ impl Tile {
             let e = &events[i];
             if entry & Entry::MARK != 0 {
                 engine.mark(e, config.refractory_us);
-            } else if entry & Entry::FIT != 0 {
+            } else if ALL_FITTED || entry & Entry::FIT != 0 {
                 if let Some(v) = engine.process_event(e, config) {
                     self.found.push((i, v));
                 }
@@ -243,7 +261,7 @@ impl Tiles {
         if self.tiles.len() == 1 {
             self.run_single(events, stride, config, out);
         } else if events.len() >= self.parallel_min_events && events.len() <= MAX_THREADED_EVENTS {
-            self.balance(events, stride);
+            self.balance(events);
             self.run_threads(events, stride, config, out);
         } else {
             for (i, e) in events.iter().enumerate() {
@@ -313,12 +331,23 @@ impl Tiles {
         out: &mut Vec<FlowVector>,
     ) {
         let (first, others) = self.tiles.split_first_mut().expect("at least one tile");
+        // A thread the system refuses leaves its tile to the calling thread, after the
+        // others: the tiles are independent, so the order does not matter.
+        let mut refused = Vec::new();
         std::thread::scope(|scope| {
-            for tile in others {
-                scope.spawn(move || tile.run(events, stride, config));
+            for (t, tile) in others.iter_mut().enumerate() {
+                let spawned = std::thread::Builder::new()
+                    .name("faithd-flow".into())
+                    .spawn_scoped(scope, move || tile.run(events, stride, config));
+                if spawned.is_err() {
+                    refused.push(t + 1);
+                }
             }
             first.run(events, stride, config);
         });
+        for t in refused {
+            self.tiles[t].run(events, stride, config);
+        }
         // A k-way merge on the event index; k is small.
         let mut heads = vec![0; self.tiles.len()];
         loop {
@@ -337,23 +366,31 @@ impl Tiles {
     }
 
     /// Moves the tile boundaries to where each tile gets an equal share of the work of
-    /// `events` (a fitted event weighing `FIT_WEIGHT` updates), if that lowers the
-    /// largest share by at least a tenth.
-    fn balance(&mut self, events: &[Event], stride: usize) {
-        self.work.fill(0);
-        let mut phase = 0;
-        for e in events {
-            let weight = if phase == 0 { FIT_WEIGHT } else { 1 };
-            phase += 1;
-            if phase == stride {
-                phase = 0;
-            }
-            if let Some(w) = self.work.get_mut(usize::from(e.x_px)) {
-                *w += weight;
+    /// `events`, if that lowers the largest share by at least a tenth.
+    ///
+    /// The work is estimated from at most `BALANCE_SAMPLES` events spread over the
+    /// window, all weighing the same: the fitted events (one in `stride`) are spread
+    /// evenly over the window too. Counting every event costs about as much as
+    /// updating the surface with it; counting in the threads' own pass over the window
+    /// made that pass twice as slow.
+    fn balance(&mut self, events: &[Event]) {
+        let step = events.len().div_ceil(BALANCE_SAMPLES).max(1);
+        let mut work = std::mem::take(&mut self.work);
+        work.fill(0);
+        for e in events.iter().step_by(step) {
+            if let Some(w) = work.get_mut(usize::from(e.x_px)) {
+                *w += 1;
             }
         }
+        self.split_work(&work);
+        self.work = work;
+    }
+
+    /// Moves the boundaries to where each tile gets an equal share of `work` (per
+    /// column), if that lowers the largest share by at least a tenth.
+    fn split_work(&mut self, work: &[u64]) {
         let count = self.tiles.len();
-        let total: u64 = self.work.iter().sum();
+        let total: u64 = work.iter().sum();
         if total == 0 {
             return;
         }
@@ -363,7 +400,7 @@ impl Tiles {
         let mut starts = vec![0; count];
         let mut cumulative = 0;
         let mut b = 1;
-        for (c, &w) in self.work.iter().enumerate() {
+        for (c, &w) in work.iter().enumerate() {
             if b == count {
                 break;
             }
@@ -381,7 +418,7 @@ impl Tiles {
         }
         let largest = |ranges: &mut dyn Iterator<Item = Range<usize>>| {
             ranges
-                .map(|r| self.work[r].iter().sum::<u64>())
+                .map(|r| work[r].iter().sum::<u64>())
                 .max()
                 .unwrap_or(0)
         };
