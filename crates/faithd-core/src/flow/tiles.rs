@@ -31,9 +31,12 @@ const MIN_TILE_WIDTH_PX: usize = 2 * MAX_RADIUS_PX as usize + 1;
 const BALANCE_SAMPLES: usize = 4_096;
 
 /// Windows with at least this many events run on threads (when there is more than one
-/// tile): starting and joining a thread costs about 25 us here, and below this the
-/// split did not pay on the bench scenes.
-pub(super) const DEFAULT_PARALLEL_MIN_EVENTS: usize = 4_096;
+/// tile). Starting and joining a thread costs about 25 us on the development machine;
+/// on the bench scenes cut into windows, two threads broke even at about 1000 events
+/// per window and ran 1.2 times as fast at 1500, 1.35 at 2000 and 1.3 to 1.9 above
+/// (both with and without the fit cap). A slower board pays more per event, so the
+/// break-even there is no higher.
+pub(super) const DEFAULT_PARALLEL_MIN_EVENTS: usize = 2_048;
 
 /// Who handles the events of one column.
 #[derive(Clone, Copy, Debug, Default)]
