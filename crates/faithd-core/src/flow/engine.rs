@@ -41,11 +41,9 @@ fn unpack_offset_sums(packed: PackedOffsets, points: usize) -> (f64, f64) {
 }
 
 /// Scratch space of one event's fit, reused from event to event: a neighbourhood's
-/// points, the same as integers (packed offsets and time, for exact sums of any
-/// subset), and the subset a refit or the tight check works on.
+/// points, and the subset a refit or the tight check works on.
 struct Scratch {
     points: [Point; BUF_POINTS],
-    integers: [(PackedOffsets, i64); BUF_POINTS],
     subset: [Point; BUF_POINTS],
 }
 
@@ -53,7 +51,6 @@ impl Scratch {
     fn new() -> Box<Self> {
         Box::new(Self {
             points: [(0.0, 0.0, 0.0); BUF_POINTS],
-            integers: [(0, 0); BUF_POINTS],
             subset: [(0.0, 0.0, 0.0); BUF_POINTS],
         })
     }
@@ -126,10 +123,10 @@ impl Engine {
     ///
     /// The arithmetic is that of `fit_plane` on the points the original per-event code
     /// gathered, in their order, so the vectors are the same to the bit; what changed
-    /// is what is not computed. The coordinate sums are added while gathering, the
+    /// is what is not computed. The coordinate sums are added while gathering, and the
     /// initial fit's residuals are computed once for its sum of squares, the outlier
-    /// rejection and the tight check together, and the refit's sums come from the same
-    /// pass. The tight plane is fitted only for an event that yields a vector, and not
+    /// rejection and the tight check together. The tight plane is fitted only for an
+    /// event that yields a vector, and not
     /// at all when its points are those of the initial fit or of the refit (the same
     /// points in the same order give the same plane). A fit's RMS and gradient error
     /// are computed only when they are checked. Whether a pixel is recent or a point
@@ -158,13 +155,9 @@ impl Engine {
             scratch,
             stats,
         } = self;
-        let Scratch {
-            points,
-            integers,
-            subset,
-        } = &mut **scratch;
+        let Scratch { points, subset } = &mut **scratch;
 
-        let (n, sums) = gather::<INTEGER_SUMS>(surface, e, x, y, config, points, integers);
+        let (n, sums) = gather::<INTEGER_SUMS>(surface, e, x, y, config, points);
         if n < config.min_points {
             stats.too_few_points += 1;
             return None;
@@ -174,30 +167,23 @@ impl Engine {
             stats.bad_fit += 1;
             return None;
         };
-        let Rejection {
-            ss,
-            kept,
-            near,
-            kept_sums: float_kept_sums,
-        } = reject_outliers::<INTEGER_SUMS>(&initial, points, integers, subset, config);
+        let Rejection { ss, kept, near } = reject_outliers(&initial, points, subset, config);
         let (fit, fit_ss) = if kept < n {
             if kept < config.min_points {
                 stats.too_few_points += 1;
                 return None;
             }
             let kept_points = &subset[..kept];
-            let kept_sums = if INTEGER_SUMS {
-                let (mut kxy, mut kt) = (0, 0);
-                for &(xy, t) in &integers[..kept] {
-                    kxy += xy;
-                    kt += t;
-                }
-                let (kx, ky) = unpack_offset_sums(kxy, kept);
-                (kx, ky, kt as f64)
-            } else {
-                float_kept_sums
-            };
-            let Some(refit) = Plane::through(kept_points, kept_sums) else {
+            // `fit_plane`'s own sums. (Sums masked in the rejection pass became a
+            // mispredicted branch there, and integer copies of the points cost more
+            // to keep than this.)
+            let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
+            for &(x, y, t) in kept_points {
+                kx += x;
+                ky += y;
+                kt += t;
+            }
+            let Some(refit) = Plane::through(kept_points, (kx, ky, kt)) else {
                 stats.bad_fit += 1;
                 return None;
             };
@@ -266,13 +252,10 @@ impl Engine {
 struct Rejection {
     /// Sum of the squared residuals.
     ss: f64,
-    /// Points within `outlier_residual_us`, now at the front of the subset (and of the
-    /// integers with `INTEGER_SUMS`).
+    /// Points within `outlier_residual_us`, now at the front of the subset.
     kept: usize,
     /// Points within `tight_residual_us`.
     near: usize,
-    /// The kept points' coordinate sums, without `INTEGER_SUMS` only.
-    kept_sums: (f64, f64, f64),
 }
 
 /// The initial fit's residuals, computed once for its sum of squares, one round of
@@ -282,41 +265,23 @@ struct Rejection {
 /// Not inlined: in the event's code the compiler spilled the sum of squares to memory
 /// in this loop, which made it twice as slow.
 #[inline(never)]
-fn reject_outliers<const INTEGER_SUMS: bool>(
+fn reject_outliers(
     initial: &Plane,
     points: &[Point],
-    integers: &mut [(PackedOffsets, i64); BUF_POINTS],
     subset: &mut [Point; BUF_POINTS],
     config: &FlowConfig,
 ) -> Rejection {
     let (outlier_us, tight_us) = (config.outlier_residual_us, config.tight_residual_us);
     let mut ss = 0.0;
     let (mut kept, mut near) = (0, 0);
-    let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
-    for (i, &p) in points.iter().enumerate() {
+    for &p in points {
         let r = initial.residual_us(p);
         ss += r * r;
-        let keep = r.abs() <= outlier_us;
         near += usize::from(r.abs() <= tight_us);
-        let slot = kept & (BUF_POINTS - 1);
-        subset[slot] = p;
-        kept += usize::from(keep);
-        if INTEGER_SUMS {
-            // Summed by the caller, over the kept ones: a sum masked here becomes a
-            // branch (the compiler's choice) that is mispredicted.
-            integers[slot] = integers[i & (BUF_POINTS - 1)];
-        } else {
-            kx += masked(p.0, keep);
-            ky += masked(p.1, keep);
-            kt += masked(p.2, keep);
-        }
+        subset[kept & (BUF_POINTS - 1)] = p;
+        kept += usize::from(r.abs() <= outlier_us);
     }
-    Rejection {
-        ss,
-        kept,
-        near,
-        kept_sums: (kx, ky, kt),
-    }
+    Rejection { ss, kept, near }
 }
 
 /// `value` where `keep`, else +0 or -0: adding either zero to a sum that is not -0 (a
@@ -332,7 +297,7 @@ fn masked(value: f64, keep: bool) -> f64 {
 ///
 /// Every pixel of the patch is written to the buffers and counted only when it is
 /// recent. With `INTEGER_SUMS` the sums are added as integers (exact, see
-/// `EXACT_SUM_WINDOW_US`) and `integers` gets the points too; else in floating point
+/// `EXACT_SUM_WINDOW_US`); else in floating point
 /// in point order, with a zero for the other pixels (see `masked`).
 #[inline(always)]
 fn gather<const INTEGER_SUMS: bool>(
@@ -342,7 +307,6 @@ fn gather<const INTEGER_SUMS: bool>(
     y: usize,
     config: &FlowConfig,
     points: &mut [Point; BUF_POINTS],
-    integers: &mut [(PackedOffsets, i64); BUF_POINTS],
 ) -> (usize, (f64, f64, f64)) {
     let r = usize::from(config.radius_px.min(MAX_RADIUS_PX));
     let (w, h) = (surface.width_px(), surface.height_px());
@@ -387,7 +351,6 @@ fn gather<const INTEGER_SUMS: bool>(
             let slot = n & (BUF_POINTS - 1);
             points[slot] = (dx, dy, dtf);
             if INTEGER_SUMS {
-                integers[slot] = (xy, dt);
                 let mask = -i64::from(recent);
                 sxy += xy & mask;
                 st += dt & mask;
