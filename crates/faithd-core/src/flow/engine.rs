@@ -126,12 +126,11 @@ impl Engine {
     /// is what is not computed. The coordinate sums are added while gathering, and the
     /// initial fit's residuals are computed once for its sum of squares, the outlier
     /// rejection and the tight check together. The tight plane is fitted only for an
-    /// event that yields a vector, and not
-    /// at all when its points are those of the initial fit or of the refit (the same
-    /// points in the same order give the same plane). A fit's RMS and gradient error
-    /// are computed only when they are checked. Whether a pixel is recent or a point
-    /// kept depends on the data, so those loops have no branch on it: mispredicted,
-    /// such branches cost more than the fits.
+    /// event that yields a vector, and not at all when its points are those of the
+    /// initial fit or of the refit (the same points in the same order give the same
+    /// plane). A fit's RMS and gradient error are computed only when they are checked.
+    /// Whether a pixel is recent or a point kept depends on the data, so those loops
+    /// have no branch on it: mispredicted, such branches cost more than the fits.
     #[inline(always)]
     fn process_event_with<const INTEGER_SUMS: bool>(
         &mut self,
@@ -174,9 +173,8 @@ impl Engine {
                 return None;
             }
             let kept_points = &subset[..kept];
-            // `fit_plane`'s own sums. (Sums masked in the rejection pass became a
-            // mispredicted branch there, and integer copies of the points cost more
-            // to keep than this.)
+            // `fit_plane`'s own sums. (Masked sums in the rejection pass became a
+            // mispredicted branch there; integer copies of the points cost more.)
             let (mut kx, mut ky, mut kt) = (0.0, 0.0, 0.0);
             for &(x, y, t) in kept_points {
                 kx += x;
@@ -220,8 +218,8 @@ impl Engine {
             } else if near < config.min_points {
                 false
             } else {
-                // Rare (a vector whose tight set differs from both fits' sets): the
-                // floating-point sums, exact in both cases.
+                // Rare: a vector whose tight set is neither fit's set. Masked sums
+                // (see `masked`) in point order, as `fit_plane` adds them.
                 let (mut sx, mut sy, mut st) = (0.0, 0.0, 0.0);
                 let mut m = 0;
                 for &p in points {
@@ -295,10 +293,10 @@ fn masked(value: f64, keep: bool) -> f64 {
 /// Recent same-polarity neighbours of an event at (x, y) as (dx, dy, dt) relative to
 /// it, row by row, and the sums of their coordinates in that order.
 ///
-/// Every pixel of the patch is written to the buffers and counted only when it is
+/// Every pixel of the patch is written to the buffer and counted only when it is
 /// recent. With `INTEGER_SUMS` the sums are added as integers (exact, see
-/// `EXACT_SUM_WINDOW_US`); else in floating point
-/// in point order, with a zero for the other pixels (see `masked`).
+/// `EXACT_SUM_WINDOW_US`); else in floating point in point order, with a zero for the
+/// other pixels (see `masked`).
 #[inline(always)]
 fn gather<const INTEGER_SUMS: bool>(
     surface: &ActiveEventSurface,

@@ -11,10 +11,10 @@
 //! surface. Below `parallel_min_events` events a window runs on the calling thread,
 //! event by event, on the same tiles.
 //!
-//! The tile boundaries follow the events: after a window that ran on threads they
-//! move to where each tile would have had an equal share of its work (when that lowers
-//! the largest share by a tenth), and the columns a tile newly needs are copied in
-//! from the tile that owned them.
+//! The tile boundaries follow the events: before a window runs on threads they move
+//! to where each tile gets an equal share of its events (when that lowers the largest
+//! share by a tenth), and the columns a tile newly needs are copied in from the tile
+//! that owned them.
 
 use std::ops::Range;
 
@@ -34,8 +34,8 @@ const BALANCE_SAMPLES: usize = 4_096;
 /// tile). Starting and joining a thread costs about 25 us on the development machine;
 /// on the bench scenes cut into windows, two threads broke even at about 1000 events
 /// per window and ran 1.2 times as fast at 1500, 1.35 at 2000 and 1.3 to 1.9 above
-/// (both with and without the fit cap). A slower board pays more per event, so the
-/// break-even there is no higher.
+/// (both with and without the fit cap). A slower board pays more per event, so its
+/// break-even is likely no higher.
 pub(super) const DEFAULT_PARALLEL_MIN_EVENTS: usize = 2_048;
 
 /// Who handles the events of one column.
@@ -132,7 +132,9 @@ impl Tile {
                     phase = 0;
                 }
             }
-            entries[n] = i as u32 | (u32::from(role == Role::Mark) << 31) | (u32::from(fit) << 30);
+            entries[n] = i as u32
+                | (Entry::MARK * u32::from(role == Role::Mark))
+                | (Entry::FIT * u32::from(fit));
             n += usize::from(role != Role::Skip);
         }
         self.found.clear();
@@ -267,9 +269,11 @@ impl Tiles {
             self.balance(events);
             self.run_threads(events, stride, config, out);
         } else {
-            for (i, e) in events.iter().enumerate() {
-                if let Some(v) = self.step(e, i % stride == 0, config) {
-                    out.push(v);
+            for chunk in events.chunks(stride) {
+                for (k, e) in chunk.iter().enumerate() {
+                    if let Some(v) = self.step(e, k == 0, config) {
+                        out.push(v);
+                    }
                 }
             }
         }
