@@ -397,9 +397,14 @@ fn run(
         total.not_fitted += s.not_fitted;
         start = end;
     }
+    line(out.len(), &digest, &total)
+}
+
+/// The text of a case: vector count, digest, stats summed over the stream.
+fn line(vectors: usize, digest: &Digest, total: &FlowStats) -> String {
     format!(
         "{} vectors {:016x} | ev {} oov {} refr {} few {} bad {} loose {} speed {} vec {} unfit {}",
-        out.len(),
+        vectors,
         digest.0,
         total.events,
         total.out_of_view,
@@ -499,6 +504,41 @@ fn threads_by_window_size_are_bit_identical_to_the_pinned_code() {
         count: 3,
         min_events: 300,
     }));
+}
+
+/// `process_event` one event at a time gives the vectors `process` gives for the
+/// whole stream, on one thread and on two tiles; and a flow that ran and was reset is
+/// a new one.
+#[test]
+fn event_by_event_after_a_reset_is_bit_identical_to_the_pinned_code() {
+    let streams = streams();
+    let configs = configs();
+    for (k, stream) in streams.iter().enumerate() {
+        let other = &streams[(k + 1) % streams.len()];
+        for &(config_name, config) in &configs[..3] {
+            let expected = format!("{} {config_name} whole: ", stream.name);
+            let pinned = PINNED
+                .iter()
+                .find(|p| p.starts_with(&expected))
+                .expect("a pinned whole-stream case");
+            for threads in [1, 2] {
+                let mut flow = NormalFlow::with_threads(&stream.camera, config, threads);
+                flow.set_parallel_min_events(0);
+                let mut out = Vec::new();
+                let prefix = &other.events[..other.events.len().min(20_000)];
+                flow.process(prefix, &mut out);
+                flow.reset();
+                out.clear();
+                out.extend(stream.events.iter().filter_map(|e| flow.process_event(e)));
+                let mut digest = Digest::new();
+                digest.vectors(&out);
+                let stats = flow.take_stats();
+                digest.stats(&stats);
+                let got = format!("{expected}{}", line(out.len(), &digest, &stats));
+                assert_eq!(&got, pinned, "{threads} threads");
+            }
+        }
+    }
 }
 
 /// The streams are what the digests were computed on: a change to the generators
