@@ -11,8 +11,9 @@
 //! surface updates are measured.
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
-use criterion::{BatchSize, Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
 use faithd_core::flow::{FlowConfig, NormalFlow};
@@ -53,14 +54,18 @@ fn bench_flow(c: &mut Criterion) {
     ] {
         group.throughput(Throughput::Elements(events.len() as u64));
         let mut out = Vec::with_capacity(events.len());
-        // A fresh flow per run, made outside the timing: two tiles' surfaces (1.4 MB)
-        // come from the system again every time and cost about 0.3 ms to fill, which
-        // the daemon pays once. (One surface costs 6 us, as in the `before` baseline.)
+        // One flow for all runs, reset between them outside the timing, as the daemon
+        // keeps its flow: a fresh one would time the growth of the tiles' buffers
+        // and, on two tiles, 1.4 MB of surfaces to get from the system (0.3 ms). The
+        // `before` baseline made a flow inside each run (then 6 us, 0.04 % of it).
+        let mut flow = NormalFlow::with_threads(&cam, config, threads);
         group.bench_function(name, |b| {
-            b.iter_batched_ref(
-                || NormalFlow::with_threads(&cam, config, threads),
-                |flow| {
+            b.iter_custom(|runs| {
+                let mut total = Duration::ZERO;
+                for _ in 0..runs {
+                    flow.reset();
                     out.clear();
+                    let start = Instant::now();
                     match window {
                         None => flow.process(black_box(events), &mut out),
                         Some(size) => {
@@ -73,10 +78,11 @@ fn bench_flow(c: &mut Criterion) {
                             }
                         }
                     }
-                    black_box(out.len())
-                },
-                BatchSize::PerIteration,
-            )
+                    black_box(out.len());
+                    total += start.elapsed();
+                }
+                total
+            })
         });
     }
     group.finish();
