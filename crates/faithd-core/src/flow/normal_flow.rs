@@ -9,7 +9,7 @@ use super::vector::FlowVector;
 use crate::camera::CameraIntrinsics;
 use crate::event::Event;
 
-/// Largest neighbourhood radius: 11x11 pixels, the stack buffer's size.
+/// Largest neighbourhood radius: 11x11 pixels, what the point buffers hold.
 pub const MAX_RADIUS_PX: u16 = 5;
 pub(super) const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
 

@@ -39,9 +39,10 @@ pub fn fit_plane(points: &[(f64, f64, f64)]) -> Option<PlaneFit> {
 }
 
 /// The least-squares plane of `fit_plane` before its residuals are known: the flow
-/// stage splits the fit in these steps so that it can reuse sums it already has and
-/// skip what a rejected fit never needs. Every step does the arithmetic of
-/// `fit_plane` in its order, so both give the same bits.
+/// stage takes the fit in these steps so that it can reuse sums it already has and
+/// skip what a rejected fit never needs. The steps keep the operations, and their
+/// order, of the one-piece fit they were split from (issue 20), so every fit has the
+/// same bits as before.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Plane {
     pub a_us_per_px: f64,
