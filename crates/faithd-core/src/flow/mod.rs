@@ -6,9 +6,11 @@
 //! grid leaves a gradient of `1/s` along its normal, so the normal flow is
 //! `(a, b) / (a^2 + b^2)`.
 
+mod engine;
 mod normal_flow;
 mod plane_fit;
 mod surface;
+mod tiles;
 mod vector;
 
 pub use normal_flow::{FlowConfig, FlowStats, MAX_RADIUS_PX, NormalFlow};

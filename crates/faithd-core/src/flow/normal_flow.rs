@@ -4,15 +4,14 @@ use serde::{Deserialize, Serialize};
 
 use crate::invalid::{Invalid, check, positive};
 
-use super::plane_fit::{PlaneFit, fit_plane};
-use super::surface::{ActiveEventSurface, NEVER_US};
+use super::tiles::Tiles;
 use super::vector::FlowVector;
 use crate::camera::CameraIntrinsics;
 use crate::event::Event;
 
-/// Largest neighbourhood radius: 11x11 pixels, the stack buffer's size.
+/// Largest neighbourhood radius: 11x11 pixels, what the point buffers hold.
 pub const MAX_RADIUS_PX: u16 = 5;
-const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
+pub(super) const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
 
 /// Tunables of the normal flow stage.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -136,21 +135,6 @@ impl FlowConfig {
     }
 }
 
-/// Moves the points within `max_residual_us` of the plane to the front; returns how
-/// many they are.
-fn keep_near(fit: &PlaneFit, max_residual_us: f64, points: &mut [(f64, f64, f64)]) -> usize {
-    let mut kept = 0;
-    for i in 0..points.len() {
-        let (px, py, pt) = points[i];
-        let r = pt - (fit.a_us_per_px * px + fit.b_us_per_px * py + fit.c_us);
-        if r.abs() <= max_residual_us {
-            points[kept] = points[i];
-            kept += 1;
-        }
-    }
-    kept
-}
-
 /// Counters of what happened to the events of a window, for logs and health checks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct FlowStats {
@@ -170,18 +154,28 @@ pub struct FlowStats {
 }
 
 /// Streaming normal flow: feed events in time order, collect vectors.
+///
+/// With more than one thread (`with_threads`) the sensor is split into as many
+/// vertical tiles, and a window of at least `parallel_min_events` events runs each
+/// tile on its own thread (see `tiles.rs`). The vectors, their order and the counters
+/// are the same to the bit whatever the number of threads.
 pub struct NormalFlow {
     config: FlowConfig,
-    surface: ActiveEventSurface,
-    stats: FlowStats,
+    tiles: Tiles,
 }
 
 impl NormalFlow {
+    /// Flow on the calling thread alone.
     pub fn new(camera: &CameraIntrinsics, config: FlowConfig) -> Self {
+        Self::with_threads(camera, config, 1)
+    }
+
+    /// Flow on up to `threads` threads (the calling one included) for large windows;
+    /// 1 is `new`. A sensor narrower than 11 pixels per thread gets fewer.
+    pub fn with_threads(camera: &CameraIntrinsics, config: FlowConfig, threads: usize) -> Self {
         Self {
+            tiles: Tiles::new(camera.width_px, camera.height_px, config.radius_px, threads),
             config,
-            surface: ActiveEventSurface::new(camera.width_px, camera.height_px),
-            stats: FlowStats::default(),
         }
     }
 
@@ -189,24 +183,34 @@ impl NormalFlow {
         &self.config
     }
 
+    /// Threads a large window runs on.
+    pub fn threads(&self) -> usize {
+        self.tiles.count()
+    }
+
+    /// Windows with at least this many events run on threads; smaller ones on the
+    /// calling thread, where starting threads would cost more than they save.
+    pub fn parallel_min_events(&self) -> usize {
+        self.tiles.parallel_min_events
+    }
+
+    pub fn set_parallel_min_events(&mut self, events: usize) {
+        self.tiles.parallel_min_events = events;
+    }
+
     /// Counters since the last `take_stats`.
     pub fn take_stats(&mut self) -> FlowStats {
-        std::mem::take(&mut self.stats)
+        self.tiles.take_stats()
     }
 
     /// Forgets the surface, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
-        self.surface.clear();
-        self.stats = FlowStats::default();
+        self.tiles.clear();
     }
 
     /// Processes events in order, appending one vector per event that yields a good fit.
     pub fn process(&mut self, events: &[Event], out: &mut Vec<FlowVector>) {
-        for e in events {
-            if let Some(v) = self.process_event(e) {
-                out.push(v);
-            }
-        }
+        self.tiles.run(events, 1, &self.config, out);
     }
 
     /// Processes one window's events with at most `max_fits` plane fits: every k-th
@@ -214,150 +218,12 @@ impl NormalFlow {
     /// event updates the surface. The same events give the same vectors.
     pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
         let stride = events.len().div_ceil(max_fits.max(1)).max(1);
-        if stride == 1 {
-            return self.process(events, out);
-        }
-        for (i, e) in events.iter().enumerate() {
-            if i % stride == 0 {
-                if let Some(v) = self.process_event(e) {
-                    out.push(v);
-                }
-            } else {
-                self.update_surface(e);
-            }
-        }
-    }
-
-    /// An event that is not fitted still marks its pixel, for its neighbours' fits.
-    fn update_surface(&mut self, e: &Event) {
-        self.stats.events += 1;
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        if x >= self.surface.width_px() || y >= self.surface.height_px() {
-            self.stats.out_of_view += 1;
-            return;
-        }
-        let previous_us = self.surface.get(x, y, e.polarity);
-        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
-        {
-            self.stats.refractory += 1;
-            return;
-        }
-        self.surface.set(x, y, e.polarity, e.t_us);
-        self.stats.not_fitted += 1;
+        self.tiles.run(events, stride, &self.config, out);
     }
 
     /// One event: update the surface, then try a plane fit around it.
     pub fn process_event(&mut self, e: &Event) -> Option<FlowVector> {
-        self.stats.events += 1;
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        if x >= self.surface.width_px() || y >= self.surface.height_px() {
-            self.stats.out_of_view += 1;
-            return None;
-        }
-        let previous_us = self.surface.get(x, y, e.polarity);
-        if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < self.config.refractory_us
-        {
-            self.stats.refractory += 1;
-            return None;
-        }
-        self.surface.set(x, y, e.polarity, e.t_us);
-
-        let mut points = [(0.0, 0.0, 0.0); MAX_POINTS];
-        let n = self.gather(e, &mut points);
-        if n < self.config.min_points {
-            self.stats.too_few_points += 1;
-            return None;
-        }
-        let Some(initial) = fit_plane(&points[..n]) else {
-            self.stats.bad_fit += 1;
-            return None;
-        };
-        let mut tight_points = points;
-        let mut fit = initial;
-        // One round of outlier rejection: stale or early pixels off the plane.
-        let kept = keep_near(&initial, self.config.outlier_residual_us, &mut points[..n]);
-        if kept < n {
-            if kept < self.config.min_points {
-                self.stats.too_few_points += 1;
-                return None;
-            }
-            let Some(refit) = fit_plane(&points[..kept]) else {
-                self.stats.bad_fit += 1;
-                return None;
-            };
-            fit = refit;
-        }
-        let tight = self.config.tight_residual_us <= 0.0
-            || self.tight_fit_holds(&initial, &mut tight_points[..n]);
-        if fit.rms_us > self.config.max_rms_us
-            || fit.gradient_rel_error > self.config.max_gradient_rel_error
-        {
-            self.stats.bad_fit += 1;
-            return None;
-        }
-        let Some((u, v)) = fit.normal_flow_px_s() else {
-            self.stats.bad_fit += 1;
-            return None;
-        };
-        let speed = u.hypot(v);
-        if !(speed >= self.config.min_speed_px_s && speed <= self.config.max_speed_px_s) {
-            self.stats.speed_rejected += 1;
-            return None;
-        }
-        self.stats.vectors += 1;
-        if !tight {
-            self.stats.not_tight += 1;
-        }
-        Some(FlowVector {
-            tight,
-            ..FlowVector::new(e.t_us, x as f64, y as f64, u, v)
-        })
-    }
-
-    /// Whether the points near `initial` alone make a good plane: at least
-    /// `min_points` within `tight_residual_us` of it, fitting within the RMS and
-    /// gradient limits.
-    fn tight_fit_holds(&self, initial: &PlaneFit, points: &mut [(f64, f64, f64)]) -> bool {
-        let near = keep_near(initial, self.config.tight_residual_us, points);
-        near >= self.config.min_points
-            && fit_plane(&points[..near]).is_some_and(|t| {
-                t.rms_us <= self.config.max_rms_us
-                    && t.gradient_rel_error <= self.config.max_gradient_rel_error
-                    && t.normal_flow_px_s().is_some()
-            })
-    }
-
-    /// Recent same-polarity neighbours as (dx, dy, dt) relative to the event.
-    fn gather(&self, e: &Event, points: &mut [(f64, f64, f64); MAX_POINTS]) -> usize {
-        let r = usize::from(self.config.radius_px.min(MAX_RADIUS_PX));
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        let (x0, x1) = (
-            x.saturating_sub(r),
-            (x + r).min(self.surface.width_px() - 1),
-        );
-        let (y0, y1) = (
-            y.saturating_sub(r),
-            (y + r).min(self.surface.height_px() - 1),
-        );
-        let mut n = 0;
-        for ny in y0..=y1 {
-            for nx in x0..=x1 {
-                let t = self.surface.get(nx, ny, e.polarity);
-                if t == NEVER_US {
-                    continue;
-                }
-                let age_us = e.t_us.saturating_sub(t);
-                if (0..=self.config.window_us).contains(&age_us) {
-                    points[n] = (
-                        nx as f64 - x as f64,
-                        ny as f64 - y as f64,
-                        (t - e.t_us) as f64,
-                    );
-                    n += 1;
-                }
-            }
-        }
-        n
+        self.tiles.step(e, true, &self.config)
     }
 }
 

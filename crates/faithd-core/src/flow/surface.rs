@@ -39,10 +39,27 @@ impl ActiveEventSurface {
         self.t_us[self.index(x_px, y_px, polarity)]
     }
 
+    /// The latest times of one polarity, row by row (`y_px * width_px + x_px`).
+    pub fn plane(&self, polarity: Polarity) -> &[i64] {
+        let size = self.width_px * self.height_px;
+        &self.t_us[polarity.index() * size..(polarity.index() + 1) * size]
+    }
+
     /// Stores a new time and returns the previous one.
     pub fn set(&mut self, x_px: usize, y_px: usize, polarity: Polarity, t_us: i64) -> i64 {
         let i = self.index(x_px, y_px, polarity);
         std::mem::replace(&mut self.t_us[i], t_us)
+    }
+
+    /// Copies one column, both polarities, from a surface of the same size.
+    pub fn copy_column_from(&mut self, other: &Self, x_px: usize) {
+        debug_assert_eq!(
+            (self.width_px, self.height_px),
+            (other.width_px, other.height_px)
+        );
+        for i in (x_px..self.t_us.len()).step_by(self.width_px) {
+            self.t_us[i] = other.t_us[i];
+        }
     }
 
     /// Forgets every event (a new flight, or a camera that reconnected).
