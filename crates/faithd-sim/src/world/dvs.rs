@@ -113,6 +113,12 @@ impl EventCamera {
         &self.depth_m
     }
 
+    /// Log intensity per pixel of the last render, row-major: what the events are
+    /// fired from (for checks that a faster renderer sees the same image).
+    pub fn log_intensity(&self) -> &[f32] {
+        &self.last_log
+    }
+
     fn render(&mut self, scene: &Scene, state: &VehicleState) {
         let r = state.attitude.matrix();
         let o = state.position_m;
