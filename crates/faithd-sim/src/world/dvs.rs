@@ -121,12 +121,22 @@ impl EventCamera {
 
     fn render(&mut self, scene: &Scene, state: &VehicleState) {
         let r = state.attitude.matrix();
-        let o = state.position_m;
-        let pixel_rad = 1.0 / self.camera.fx_px;
+        let world_to_camera = self.mounting.body_to_camera * r.transpose();
+        let view = scene.view(&state.position_m, &world_to_camera, &self.camera);
+        let w = usize::from(self.camera.width_px);
+        // Neighbouring pixels often see exactly the same reflectance (inside a tile, a
+        // band, a board): the logarithm of an equal f64 is the same, so reuse it.
+        let mut last_reflectance = f64::NAN;
+        let mut last_log = 0.0f32;
         for (i, ray_b) in self.rays_body.iter().enumerate() {
             let dir = r * ray_b;
-            let (reflectance, depth) = scene.shade(&o, &dir, pixel_rad);
-            self.current_log[i] = reflectance.ln() as f32;
+            let (x_px, y_px) = ((i % w) as i32, (i / w) as i32);
+            let (reflectance, depth) = view.shade(&dir, x_px, y_px);
+            if reflectance != last_reflectance {
+                last_reflectance = reflectance;
+                last_log = reflectance.ln() as f32;
+            }
+            self.current_log[i] = last_log;
             self.depth_m[i] = depth as f32;
         }
     }

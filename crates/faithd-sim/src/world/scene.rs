@@ -5,6 +5,8 @@ use nalgebra::Vector3;
 
 use super::texture::Texture;
 
+mod view;
+
 /// One solid of the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
@@ -61,6 +63,10 @@ enum NodeKind {
 }
 
 const LEAF_SIZE: usize = 4;
+
+/// Capacity of the traversal stack; children beyond it are not visited (never reached:
+/// a tree of 2^60 leaves would be needed).
+const STACK_DEPTH: usize = 64;
 
 /// The nearest surface along a ray: distance, texture coordinates and the cosine of
 /// the incidence angle (1 = face-on), which sets how large a pixel's footprint is.
@@ -139,8 +145,9 @@ impl Scene {
     /// Nearest hit of the ray `origin + t * dir`, t > 0.
     pub fn cast(&self, origin: &Vector3<f64>, dir: &Vector3<f64>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
+        let norm = dir.norm();
         let consider = |i: usize, best: &mut Option<Hit>| {
-            if let Some(h) = self.solids[i].shape.intersect(origin, dir)
+            if let Some(h) = self.solids[i].shape.intersect_with_norm(origin, dir, norm)
                 && best.is_none_or(|b| h.t < b.t)
             {
                 *best = Some(Hit { solid: i, ..h });
@@ -153,11 +160,12 @@ impl Scene {
             return best;
         }
         let inv = Vector3::new(1.0 / dir.x, 1.0 / dir.y, 1.0 / dir.z);
-        let mut stack = [0usize; 64];
+        // u32, not usize: a 512-byte stack was zeroed by a memset call on every ray.
+        let mut stack = [0u32; STACK_DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = &self.nodes[stack[top]];
+            let node = &self.nodes[stack[top] as usize];
             let limit = best.map_or(f64::INFINITY, |b| b.t);
             if !slab_hit(origin, &inv, &node.min, &node.max, limit) {
                 continue;
@@ -170,8 +178,8 @@ impl Scene {
                 }
                 NodeKind::Inner { left, right } => {
                     if top + 2 <= stack.len() {
-                        stack[top] = right;
-                        stack[top + 1] = left;
+                        stack[top] = right as u32;
+                        stack[top + 1] = left as u32;
                         top += 2;
                     }
                 }
@@ -230,14 +238,15 @@ fn slab_hit(
     true
 }
 
-fn face_hit(o: &Vector3<f64>, d: &Vector3<f64>, t: f64, axis: usize) -> Hit {
+/// `norm` is `d.norm()`, passed in so that a ray computes it once for all its tests.
+fn face_hit(o: &Vector3<f64>, d: &Vector3<f64>, norm: f64, t: f64, axis: usize) -> Hit {
     let p = o + d * t;
     let (u_m, v_m) = face_uv(&p, axis);
     Hit {
         t,
         u_m,
         v_m,
-        cos_incidence: d[axis].abs() / d.norm(),
+        cos_incidence: d[axis].abs() / norm,
         solid: 0,
     }
 }
@@ -262,6 +271,16 @@ impl Shape {
 
     /// Ray intersection (the `solid` index of the hit is left 0).
     pub fn intersect(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<Hit> {
+        self.intersect_with_norm(o, d, d.norm())
+    }
+
+    /// [`Shape::intersect`] with `d.norm()` computed by the caller, once per ray.
+    pub(crate) fn intersect_with_norm(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        norm: f64,
+    ) -> Option<Hit> {
         match self {
             Shape::Room { min, max } => {
                 // From inside: the first face the ray leaves through.
@@ -281,7 +300,7 @@ impl Shape {
                 if !(t_exit.is_finite() && t_exit > 0.0) {
                     return None;
                 }
-                Some(face_hit(o, d, t_exit, axis))
+                Some(face_hit(o, d, norm, t_exit, axis))
             }
             Shape::Block { min, max } => {
                 let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
@@ -305,7 +324,7 @@ impl Shape {
                 if t_near > t_far || t_near <= 1e-9 {
                     return None;
                 }
-                Some(face_hit(o, d, t_near, axis))
+                Some(face_hit(o, d, norm, t_near, axis))
             }
             Shape::Pole {
                 x,
@@ -338,7 +357,7 @@ impl Shape {
                     t,
                     u_m: angle * radius,
                     v_m: p.z,
-                    cos_incidence: (nx * d.x + ny * d.y).abs() / d.norm(),
+                    cos_incidence: (nx * d.x + ny * d.y).abs() / norm,
                     solid: 0,
                 })
             }

@@ -57,7 +57,7 @@ impl Texture {
                     + 0.1 * fade(4.1 * f) * value_noise(4.1 * u, 4.1 * v, self.seed ^ 0x7f4a)
             }
             Pattern::Planks => {
-                let board = u.floor();
+                let board = floor(u);
                 let shade = lattice(board as i64, 0, self.seed);
                 let grain = value_noise(u * 6.0, v * 0.4, self.seed ^ 0x51);
                 let joint = if u - board < JOINT {
@@ -68,7 +68,7 @@ impl Texture {
                 (fade(f) * (0.7 * shade + 0.25 * fade(6.0 * f) * grain) + joint).clamp(-1.0, 1.0)
             }
             Pattern::Tiles => {
-                let (iu, iv) = (u.floor(), v.floor());
+                let (iu, iv) = (floor(u), floor(v));
                 let shade = lattice(iu as i64, iv as i64, self.seed);
                 let joint = u - iu < JOINT || v - iv < JOINT;
                 if joint {
@@ -77,7 +77,7 @@ impl Texture {
                     0.8 * fade(f) * shade
                 }
             }
-            Pattern::Bands => fade(f) * lattice(0, v.floor() as i64, self.seed),
+            Pattern::Bands => fade(f) * lattice(0, floor(v) as i64, self.seed),
         };
         (self.base * (1.0 + self.contrast * p)).clamp(0.01, 1.0)
     }
@@ -96,6 +96,25 @@ fn fade(x: f64) -> f64 {
     (2.0 - 4.0 * x).clamp(0.0, 1.0)
 }
 
+/// `x.floor()`, exactly, without a call: the default x86-64 target has no SSE4.1
+/// `roundsd`, so `f64::floor` is a libm call, and textures floor twice per pixel.
+///
+/// Truncation toward zero is exact below 2^52 (every such double's integer part is a
+/// double); one less for a negative non-integer. `copysign` keeps `floor(-0.0)` at
+/// -0.0 (the result otherwise always has the sign of `x`). NaN, infinities and
+/// larger magnitudes (integers already) take `f64::floor`.
+#[inline]
+fn floor(x: f64) -> f64 {
+    const TWO_52: f64 = 4_503_599_627_370_496.0;
+    if x.abs() < TWO_52 {
+        let t = x as i64 as f64;
+        let r = if t > x { t - 1.0 } else { t };
+        r.copysign(x)
+    } else {
+        x.floor()
+    }
+}
+
 /// Hash of an integer lattice point to [-1, 1].
 fn lattice(i: i64, j: i64, seed: u32) -> f64 {
     let mut h = (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
@@ -109,7 +128,7 @@ fn lattice(i: i64, j: i64, seed: u32) -> f64 {
 
 /// Bilinear value noise with smoothstep weights, in [-1, 1].
 fn value_noise(u: f64, v: f64, seed: u32) -> f64 {
-    let (iu, iv) = (u.floor(), v.floor());
+    let (iu, iv) = (floor(u), floor(v));
     let (fu, fv) = (u - iu, v - iv);
     let (su, sv) = (fu * fu * (3.0 - 2.0 * fu), fv * fv * (3.0 - 2.0 * fv));
     let (i, j) = (iu as i64, iv as i64);
@@ -125,6 +144,51 @@ fn value_noise(u: f64, v: f64, seed: u32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_matches_the_library_floor_bit_for_bit() {
+        let mut specials = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            4_503_599_627_370_495.5,
+            -4_503_599_627_370_495.5,
+            4_503_599_627_370_496.0,
+            -4_503_599_627_370_497.0,
+            1e300,
+            -1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1.0 - f64::EPSILON / 2.0,
+            -(1.0 - f64::EPSILON / 2.0),
+        ];
+        let mut x = 1.234_567e-7_f64;
+        while x < 1e18 {
+            for v in [
+                x,
+                -x,
+                x.next_up(),
+                -x.next_up(),
+                x.next_down(),
+                -x.next_down(),
+            ] {
+                specials.push(v);
+                specials.push(v.round());
+                specials.push(v.round().next_up());
+                specials.push(v.round().next_down());
+            }
+            x *= 1.37;
+        }
+        for v in specials {
+            assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v:e}");
+        }
+        assert!(floor(f64::NAN).is_nan());
+    }
 
     #[test]
     fn reflectance_stays_in_range_and_is_deterministic() {
