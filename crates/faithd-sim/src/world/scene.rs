@@ -283,86 +283,123 @@ impl Shape {
     ) -> Option<Hit> {
         match self {
             Shape::Room { min, max } => {
-                // From inside: the first face the ray leaves through.
-                let mut t_exit = f64::INFINITY;
-                let mut axis = 0;
-                for k in 0..3 {
-                    if d[k].abs() < 1e-12 {
-                        continue;
-                    }
-                    let bound = if d[k] > 0.0 { max[k] } else { min[k] };
-                    let t = (bound - o[k]) / d[k];
-                    if t < t_exit {
-                        t_exit = t;
-                        axis = k;
-                    }
-                }
-                if !(t_exit.is_finite() && t_exit > 0.0) {
-                    return None;
-                }
-                Some(face_hit(o, d, norm, t_exit, axis))
+                room_exit(o, d, min, max).map(|(t, axis)| face_hit(o, d, norm, t, axis))
             }
             Shape::Block { min, max } => {
-                let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
-                for k in 0..3 {
-                    if d[k].abs() < 1e-12 {
-                        if o[k] < min[k] || o[k] > max[k] {
-                            return None;
-                        }
-                        continue;
-                    }
-                    let (mut t0, mut t1) = ((min[k] - o[k]) / d[k], (max[k] - o[k]) / d[k]);
-                    if t0 > t1 {
-                        std::mem::swap(&mut t0, &mut t1);
-                    }
-                    if t0 > t_near {
-                        t_near = t0;
-                        axis = k;
-                    }
-                    t_far = t_far.min(t1);
-                }
-                if t_near > t_far || t_near <= 1e-9 {
-                    return None;
-                }
-                Some(face_hit(o, d, norm, t_near, axis))
+                block_entry(o, d, min, max).map(|(t, axis)| face_hit(o, d, norm, t, axis))
             }
-            Shape::Pole {
+            &Shape::Pole {
                 x,
                 y,
                 radius,
                 z_top,
-            } => {
-                let (ox, oy) = (o.x - x, o.y - y);
-                let a = d.x * d.x + d.y * d.y;
-                if a < 1e-12 {
-                    return None;
-                }
-                let b = 2.0 * (ox * d.x + oy * d.y);
-                let c = ox * ox + oy * oy - radius * radius;
-                let disc = b * b - 4.0 * a * c;
-                if disc < 0.0 {
-                    return None;
-                }
-                let t = (-b - disc.sqrt()) / (2.0 * a);
-                if t <= 1e-9 {
-                    return None;
-                }
-                let p = o + d * t;
-                if p.z < *z_top || p.z > 0.0 {
-                    return None;
-                }
-                let (nx, ny) = ((p.x - x) / radius, (p.y - y) / radius);
+            } => pole_entry(o, d, x, y, radius, z_top).map(|(t, p)| {
+                let (nx, ny) = pole_normal(&p, x, y, radius);
                 let angle = ny.atan2(nx);
-                Some(Hit {
+                Hit {
                     t,
                     u_m: angle * radius,
                     v_m: p.z,
                     cos_incidence: (nx * d.x + ny * d.y).abs() / norm,
                     solid: 0,
-                })
-            }
+                }
+            }),
         }
     }
+}
+
+/// Where a ray from inside a room leaves it: the distance (in units of `d`) and the
+/// axis of the wall.
+fn room_exit(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    min: &Vector3<f64>,
+    max: &Vector3<f64>,
+) -> Option<(f64, usize)> {
+    let mut t_exit = f64::INFINITY;
+    let mut axis = 0;
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            continue;
+        }
+        let bound = if d[k] > 0.0 { max[k] } else { min[k] };
+        let t = (bound - o[k]) / d[k];
+        if t < t_exit {
+            t_exit = t;
+            axis = k;
+        }
+    }
+    if !(t_exit.is_finite() && t_exit > 0.0) {
+        return None;
+    }
+    Some((t_exit, axis))
+}
+
+/// Where a ray enters a box from outside: the distance and the axis of the face.
+fn block_entry(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    min: &Vector3<f64>,
+    max: &Vector3<f64>,
+) -> Option<(f64, usize)> {
+    let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if o[k] < min[k] || o[k] > max[k] {
+                return None;
+            }
+            continue;
+        }
+        let (mut t0, mut t1) = ((min[k] - o[k]) / d[k], (max[k] - o[k]) / d[k]);
+        if t0 > t1 {
+            std::mem::swap(&mut t0, &mut t1);
+        }
+        if t0 > t_near {
+            t_near = t0;
+            axis = k;
+        }
+        t_far = t_far.min(t1);
+    }
+    if t_near > t_far || t_near <= 1e-9 {
+        return None;
+    }
+    Some((t_near, axis))
+}
+
+/// Where a ray meets the side of a vertical cylinder: the distance and the point.
+fn pole_entry(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    x: f64,
+    y: f64,
+    radius: f64,
+    z_top: f64,
+) -> Option<(f64, Vector3<f64>)> {
+    let (ox, oy) = (o.x - x, o.y - y);
+    let a = d.x * d.x + d.y * d.y;
+    if a < 1e-12 {
+        return None;
+    }
+    let b = 2.0 * (ox * d.x + oy * d.y);
+    let c = ox * ox + oy * oy - radius * radius;
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = (-b - disc.sqrt()) / (2.0 * a);
+    if t <= 1e-9 {
+        return None;
+    }
+    let p = o + d * t;
+    if p.z < z_top || p.z > 0.0 {
+        return None;
+    }
+    Some((t, p))
+}
+
+/// The outward unit normal (x, y) of a pole's side at `p`.
+fn pole_normal(p: &Vector3<f64>, x: f64, y: f64, radius: f64) -> (f64, f64) {
+    ((p.x - x) / radius, (p.y - y) / radius)
 }
 
 #[cfg(test)]

@@ -86,6 +86,176 @@ impl Texture {
 /// Width of plank and tile joints, in feature units.
 const JOINT: f64 = 0.06;
 
+/// A surface point as a render finds it, with what is dear to compute (the exact
+/// footprint, the angle around a pole) computed only when a texture asks for it.
+pub(crate) trait Surface {
+    /// Surface coordinates, exactly as [`super::scene::Hit`] has them.
+    fn u_m(&self) -> f64;
+    fn v_m(&self) -> f64;
+    /// The pixel's footprint, exactly as [`super::scene::Scene::shade`] computes it.
+    fn footprint_m(&self) -> f64;
+    /// `(num, den)` with `footprint_m()` within 1e-14 relative of `num / den`,
+    /// computed without a division.
+    fn footprint_ratio(&self) -> (f64, f64);
+}
+
+/// Margin (relative) by which a bound must clear a threshold to be trusted; the
+/// bounds themselves are good to about 1e-15.
+const CERTAIN_REL: f64 = 1e-12;
+
+/// `f = footprint / scale` for the fall-off of features, exact only when needed: in
+/// most pixels a feature is either plainly larger than four footprints (fade 1) or
+/// plainly smaller than two (fade 0), and `fade` does not depend on the exact `f`.
+struct LazyFootprint<'a, S> {
+    surface: &'a S,
+    scale_m: f64,
+    num: f64,
+    /// `num / den_lo <= 0.25` means `f <= 0.25`, certainly; `num / den_hi >= 0.5`,
+    /// `f >= 0.5`.
+    den_lo: f64,
+    den_hi: f64,
+    exact: std::cell::Cell<Option<f64>>,
+}
+
+impl<'a, S: Surface> LazyFootprint<'a, S> {
+    fn new(surface: &'a S, scale_m: f64) -> Self {
+        let (num, den) = surface.footprint_ratio();
+        let den = den * scale_m;
+        Self {
+            surface,
+            scale_m,
+            num,
+            den_lo: 0.25 * den * (1.0 - CERTAIN_REL),
+            den_hi: 0.5 * den * (1.0 + CERTAIN_REL),
+            exact: std::cell::Cell::new(None),
+        }
+    }
+
+    /// The exact `f`, as [`Texture::reflectance`] computes it.
+    fn f(&self) -> f64 {
+        if let Some(f) = self.exact.get() {
+            return f;
+        }
+        let f = self.surface.footprint_m() / self.scale_m;
+        self.exact.set(Some(f));
+        f
+    }
+
+    /// `fade(arg(f))` where `arg(f)` is about `gain * f`.
+    fn fade(&self, gain: f64, arg: impl FnOnce(f64) -> f64) -> f64 {
+        let a = gain * self.num;
+        if a <= self.den_lo {
+            1.0
+        } else if a >= self.den_hi {
+            0.0
+        } else {
+            fade(arg(self.f()))
+        }
+    }
+}
+
+/// `(floor(x), x - floor(x) < JOINT)` for `x = x_m / scale_m`, as the textures
+/// compute them, but with a multiplication by `1 / scale_m` where that cannot change
+/// either answer (the product is within 1e-15 relative of the quotient).
+fn cell(x_m: f64, scale_m: f64, inv_scale: f64) -> (f64, bool) {
+    let a = x_m * inv_scale;
+    let fa = floor(a);
+    let frac = a - fa;
+    let tol = CERTAIN_REL * a.abs().max(1.0);
+    if frac > tol && frac < 1.0 - tol && (frac - JOINT).abs() > tol {
+        (fa, frac < JOINT)
+    } else {
+        let x = x_m / scale_m;
+        let ix = floor(x);
+        (ix, x - ix < JOINT)
+    }
+}
+
+impl Texture {
+    /// [`Texture::reflectance`] of a render's surface point, the same bits, doing
+    /// only the work the result depends on.
+    ///
+    /// A term whose fade is certainly 0 is left out: it is +-0, and adding a zero
+    /// leaves any non-zero sum as it is, while a sum of zeros (of either sign) gives
+    /// `base * (1 + contrast * 0) = base` all the same. Features are located with a
+    /// multiplication (see [`cell`]) and the exact coordinates divided out only for
+    /// the noise terms that remain.
+    pub(crate) fn reflectance_of(&self, s: &impl Surface) -> f64 {
+        let lazy = LazyFootprint::new(s, self.scale_m);
+        let inv_scale = 1.0 / self.scale_m;
+        let p = match self.pattern {
+            Pattern::Noise => {
+                let w1 = lazy.fade(1.0, |f| f);
+                let w2 = lazy.fade(2.03, |f| 2.03 * f);
+                let w3 = lazy.fade(4.1, |f| 4.1 * f);
+                if w1 == 0.0 && w2 == 0.0 && w3 == 0.0 {
+                    0.0
+                } else {
+                    let (u, v) = (s.u_m() / self.scale_m, s.v_m() / self.scale_m);
+                    // `1.0 * u` is `u`, bit for bit.
+                    let term = |weight: f64, w: f64, k: f64, seed: u32| {
+                        if w == 0.0 {
+                            0.0
+                        } else {
+                            weight * w * value_noise(k * u, k * v, seed)
+                        }
+                    };
+                    term(0.6, w1, 1.0, self.seed)
+                        + term(0.3, w2, 2.03, self.seed ^ 0x9e37)
+                        + term(0.1, w3, 4.1, self.seed ^ 0x7f4a)
+                }
+            }
+            Pattern::Planks => {
+                let (board, in_joint) = cell(s.u_m(), self.scale_m, inv_scale);
+                let joint = if in_joint {
+                    -lazy.fade(0.5 / JOINT, |f| 0.5 * f / JOINT)
+                } else {
+                    0.0
+                };
+                let w1 = lazy.fade(1.0, |f| f);
+                let body = if w1 == 0.0 {
+                    0.0
+                } else {
+                    let shade = lattice(board as i64, 0, self.seed);
+                    let w6 = lazy.fade(6.0, |f| 6.0 * f);
+                    let grain = if w6 == 0.0 {
+                        0.0
+                    } else {
+                        let (u, v) = (s.u_m() / self.scale_m, s.v_m() / self.scale_m);
+                        0.25 * w6 * value_noise(u * 6.0, v * 0.4, self.seed ^ 0x51)
+                    };
+                    w1 * (0.7 * shade + grain)
+                };
+                (body + joint).clamp(-1.0, 1.0)
+            }
+            Pattern::Tiles => {
+                let (iu, u_joint) = cell(s.u_m(), self.scale_m, inv_scale);
+                let (iv, v_joint) = cell(s.v_m(), self.scale_m, inv_scale);
+                if u_joint || v_joint {
+                    -lazy.fade(0.5 / JOINT, |f| 0.5 * f / JOINT)
+                } else {
+                    let w = lazy.fade(1.0, |f| f);
+                    if w == 0.0 {
+                        0.0
+                    } else {
+                        0.8 * w * lattice(iu as i64, iv as i64, self.seed)
+                    }
+                }
+            }
+            Pattern::Bands => {
+                let w = lazy.fade(1.0, |f| f);
+                if w == 0.0 {
+                    0.0
+                } else {
+                    let (iv, _) = cell(s.v_m(), self.scale_m, inv_scale);
+                    w * lattice(0, iv as i64, self.seed)
+                }
+            }
+        };
+        (self.base * (1.0 + self.contrast * p)).clamp(0.01, 1.0)
+    }
+}
+
 /// Contrast kept by a feature whose size is `1 / x` pixel footprints: full from four
 /// pixels up, none at two or fewer. A DVS240's lens and its large, low-fill-factor
 /// pixels pass little contrast near the sampling limit; without this fall-off,
@@ -188,6 +358,91 @@ mod tests {
             assert_eq!(floor(v).to_bits(), v.floor().to_bits(), "{v:e}");
         }
         assert!(floor(f64::NAN).is_nan());
+    }
+
+    /// A surface point with a footprint as `Scene::shade` computes it.
+    struct Point {
+        u_m: f64,
+        v_m: f64,
+        dist_m: f64,
+        pixel_rad: f64,
+        norm: f64,
+        cos_num: f64,
+    }
+
+    impl Surface for Point {
+        fn u_m(&self) -> f64 {
+            self.u_m
+        }
+        fn v_m(&self) -> f64 {
+            self.v_m
+        }
+        fn footprint_m(&self) -> f64 {
+            self.dist_m * self.pixel_rad / (self.cos_num / self.norm).max(0.05)
+        }
+        fn footprint_ratio(&self) -> (f64, f64) {
+            (
+                self.dist_m * self.pixel_rad * self.norm,
+                self.cos_num.max(0.05 * self.norm),
+            )
+        }
+    }
+
+    /// Footprints spread over every regime of every fade (1, linear, 0, and the
+    /// boundaries between), coordinates on and off tile, plank and band edges.
+    #[test]
+    fn lazy_reflectance_has_the_same_bits_as_the_reference() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(4);
+        let patterns = [
+            Pattern::Noise,
+            Pattern::Planks,
+            Pattern::Tiles,
+            Pattern::Bands,
+        ];
+        let mut checked = [0usize; 4];
+        for i in 0..400_000 {
+            let pattern = patterns[i % 4];
+            let scale_m = [0.35, 0.12, 0.6, 0.05, 0.2][i % 5];
+            let t = Texture::new(pattern, scale_m, 0.7, 0.5, 9 + (i % 3) as u32);
+            let norm = rng.random_range(0.5..2.0);
+            let cos_num = norm * rng.random_range(0.0..1.0f64).powi(3);
+            let mut p = Point {
+                u_m: rng.random_range(-8.0..8.0),
+                v_m: rng.random_range(-4.0..1.0),
+                dist_m: 0.0,
+                pixel_rad: 1.0 / 195.0,
+                norm,
+                cos_num,
+            };
+            // Aim f (footprint / scale) at a fade boundary of some gain now and then.
+            let gains = [1.0, 2.03, 4.1, 6.0, 0.5 / JOINT];
+            let target_f = if i % 3 == 0 {
+                let edge = [0.25, 0.5][i % 2] / gains[(i / 2) % gains.len()];
+                edge * (1.0 + 1e-15 * rng.random_range(-4.0..4.0))
+            } else {
+                rng.random_range(0.0..1.5f64).powi(2)
+            };
+            // dist * pr / max(c / n, 0.05) / scale = f
+            p.dist_m = target_f * scale_m * (p.cos_num / p.norm).max(0.05) / p.pixel_rad;
+            // Coordinates on a feature edge or a joint's edge now and then.
+            if i % 7 == 0 {
+                let k = rng.random_range(-20..20) as f64;
+                p.u_m = (k + [0.0, JOINT][i % 2]) * scale_m;
+                p.v_m = (k + [JOINT, 0.0][i % 2]) * scale_m;
+            }
+            let reference = t.reflectance(p.u_m, p.v_m, p.footprint_m());
+            assert_eq!(
+                t.reflectance_of(&p).to_bits(),
+                reference.to_bits(),
+                "{pattern:?} scale {scale_m} at ({}, {}) footprint {}",
+                p.u_m,
+                p.v_m,
+                p.footprint_m()
+            );
+            checked[i % 4] += 1;
+        }
+        assert!(checked.iter().all(|&c| c == 100_000));
     }
 
     #[test]
