@@ -56,7 +56,7 @@ struct Node {
     kind: NodeKind,
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum NodeKind {
     Leaf { first: usize, count: usize },
     Inner { left: usize, right: usize },

@@ -17,9 +17,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use faithd_core::camera::CameraIntrinsics;
 
-use super::{
-    NodeKind, STACK_DEPTH, Scene, Shape, face_uv, pole_entry, pole_normal, room_exit, slab_hit,
-};
+use super::{NodeKind, STACK_DEPTH, Scene, Shape, face_uv, pole_normal, room_exit};
 use crate::world::texture::Surface;
 
 /// Corners nearer the camera plane than this give no pixel bounds (their projection
@@ -122,50 +120,6 @@ impl RoomFromInside {
     }
 }
 
-/// `block_entry`, with one division instead of six (none for most misses).
-///
-/// Along an axis the generic code divides `min - o` and `max - o` by `d` and swaps
-/// them into entry and exit; by the monotony of rounding the entry is `min - o`
-/// divided for `d > 0`, `max - o` for `d < 0` (or an equal value).
-fn block_entry_fast(
-    o: &Vector3<f64>,
-    d: &Vector3<f64>,
-    min: &Vector3<f64>,
-    max: &Vector3<f64>,
-) -> Option<(f64, usize)> {
-    // (numerator, denominator, axis) of the latest entry and of the earliest exit.
-    let mut near: Option<(f64, f64, usize)> = None;
-    let mut far: Option<(f64, f64)> = None;
-    for k in 0..3 {
-        let dk = d[k];
-        if dk.abs() < 1e-12 {
-            if o[k] < min[k] || o[k] > max[k] {
-                return None;
-            }
-            continue;
-        }
-        let (lo, hi) = (min[k] - o[k], max[k] - o[k]);
-        let (n_in, n_out) = if dk > 0.0 { (lo, hi) } else { (hi, lo) };
-        match near {
-            Some((n, dn, _)) if !quotient_lt(n, dn, n_in, dk) => {}
-            _ => near = Some((n_in, dk, k)),
-        }
-        match far {
-            Some((n, dn)) if !quotient_lt(n_out, dk, n, dn) => {}
-            _ => far = Some((n_out, dk)),
-        }
-    }
-    let ((n_near, d_near, axis), (n_far, d_far)) = (near?, far?);
-    if quotient_lt(n_far, d_far, n_near, d_near) {
-        return None;
-    }
-    let t_near = n_near / d_near;
-    if t_near <= 1e-9 {
-        return None;
-    }
-    Some((t_near, axis))
-}
-
 /// The nearest hit of a ray, before any shading.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Candidate {
@@ -182,16 +136,50 @@ enum CandidateKind {
     Pole { p: Vector3<f64> },
 }
 
+/// A solid seen from the camera: what its test subtracts from the ray's origin is
+/// subtracted once per render (the same f64 operations, so the same bits).
+#[derive(Clone, Copy, Debug)]
+enum Prepared {
+    /// A room with the camera strictly inside.
+    RoomInside(RoomFromInside),
+    /// A room the camera is not inside: the generic test.
+    RoomOutside {
+        min: Vector3<f64>,
+        max: Vector3<f64>,
+    },
+    /// A block, as `min - o` and `max - o`.
+    Block {
+        to_min: Vector3<f64>,
+        to_max: Vector3<f64>,
+    },
+    /// A pole, with `o - axis` (x, y) and the constant term of its quadratic.
+    Pole {
+        ox: f64,
+        oy: f64,
+        c: f64,
+        z_top: f64,
+    },
+}
+
+/// A BVH node seen from the camera.
+#[derive(Clone, Copy, Debug)]
+struct PreparedNode {
+    /// The pixels whose rays can enter the box.
+    rect: PixelRect,
+    to_min: Vector3<f64>,
+    to_max: Vector3<f64>,
+    kind: NodeKind,
+}
+
 /// The scene from one camera position and attitude.
 pub(crate) struct View<'a> {
     scene: &'a Scene,
     origin: Vector3<f64>,
     pixel_rad: f64,
-    /// Per solid of `scene.always`: the room, when the camera is strictly inside it
-    /// (else the generic intersection is used).
-    rooms: Vec<Option<RoomFromInside>>,
-    /// Per BVH node: the pixels whose rays can enter its box.
-    node_px: Vec<PixelRect>,
+    /// Per solid.
+    solids: Vec<Prepared>,
+    /// Per BVH node.
+    nodes: Vec<PreparedNode>,
 }
 
 impl Scene {
@@ -203,32 +191,142 @@ impl Scene {
         world_to_camera: &Matrix3<f64>,
         camera: &CameraIntrinsics,
     ) -> View<'_> {
-        let rooms = self
-            .always
+        let o = origin;
+        let solids = self
+            .solids
             .iter()
-            .map(|&i| match self.solids[i].shape {
+            .map(|solid| match solid.shape {
                 Shape::Room { min, max } => {
-                    let to_min = min - origin;
-                    let to_max = max - origin;
-                    let inside = (0..3).all(|k| to_min[k] < 0.0 && to_max[k] > 0.0);
-                    inside.then_some(RoomFromInside { to_min, to_max })
+                    let (to_min, to_max) = (min - o, max - o);
+                    if (0..3).all(|k| to_min[k] < 0.0 && to_max[k] > 0.0) {
+                        Prepared::RoomInside(RoomFromInside { to_min, to_max })
+                    } else {
+                        Prepared::RoomOutside { min, max }
+                    }
                 }
-                _ => None,
+                Shape::Block { min, max } => Prepared::Block {
+                    to_min: min - o,
+                    to_max: max - o,
+                },
+                Shape::Pole {
+                    x,
+                    y,
+                    radius,
+                    z_top,
+                } => {
+                    let (ox, oy) = (o.x - x, o.y - y);
+                    Prepared::Pole {
+                        ox,
+                        oy,
+                        c: ox * ox + oy * oy - radius * radius,
+                        z_top,
+                    }
+                }
             })
             .collect();
-        let node_px = self
+        let nodes = self
             .nodes
             .iter()
-            .map(|node| project_box(&node.min, &node.max, origin, world_to_camera, camera))
+            .map(|node| PreparedNode {
+                rect: project_box(&node.min, &node.max, origin, world_to_camera, camera),
+                to_min: node.min - o,
+                to_max: node.max - o,
+                kind: node.kind,
+            })
             .collect();
         View {
             scene: self,
             origin: *origin,
             pixel_rad: 1.0 / camera.fx_px,
-            rooms,
-            node_px,
+            solids,
+            nodes,
         }
     }
+}
+
+/// `block_entry` with `min - o` and `max - o` given. `o < min` iff `min - o > 0`:
+/// the difference of two distinct doubles is never rounded to zero.
+fn block_entry_from(
+    d: &Vector3<f64>,
+    to_min: &Vector3<f64>,
+    to_max: &Vector3<f64>,
+) -> Option<(f64, usize)> {
+    let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if to_min[k] > 0.0 || to_max[k] < 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let (mut t0, mut t1) = (to_min[k] / d[k], to_max[k] / d[k]);
+        if t0 > t1 {
+            std::mem::swap(&mut t0, &mut t1);
+        }
+        if t0 > t_near {
+            t_near = t0;
+            axis = k;
+        }
+        t_far = t_far.min(t1);
+    }
+    if t_near > t_far || t_near <= 1e-9 {
+        return None;
+    }
+    Some((t_near, axis))
+}
+
+/// `pole_entry` with the ray-independent terms given.
+fn pole_entry_from(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    ox: f64,
+    oy: f64,
+    c: f64,
+    z_top: f64,
+) -> Option<(f64, Vector3<f64>)> {
+    let a = d.x * d.x + d.y * d.y;
+    if a < 1e-12 {
+        return None;
+    }
+    let b = 2.0 * (ox * d.x + oy * d.y);
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = (-b - disc.sqrt()) / (2.0 * a);
+    if t <= 1e-9 {
+        return None;
+    }
+    let p = o + d * t;
+    if p.z < z_top || p.z > 0.0 {
+        return None;
+    }
+    Some((t, p))
+}
+
+/// `slab_hit` with `min - o` and `max - o` given.
+fn slab_hit_from(
+    inv: &Vector3<f64>,
+    to_min: &Vector3<f64>,
+    to_max: &Vector3<f64>,
+    limit: f64,
+) -> bool {
+    let (mut t0, mut t1) = (0.0f64, limit);
+    for k in 0..3 {
+        let (a, b) = (to_min[k] * inv[k], to_max[k] * inv[k]);
+        let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+        // NaN (a ray parallel to a face, on it) keeps the range: be inclusive.
+        if lo > t0 {
+            t0 = lo;
+        }
+        if hi < t1 {
+            t1 = hi;
+        }
+        if t0 > t1 {
+            return false;
+        }
+    }
+    true
 }
 
 /// The pixels a box can cover, or every pixel when a corner is not well in front.
@@ -279,20 +377,20 @@ fn project_box(
 impl View<'_> {
     /// The nearest hit of solid `i`, if nearer than `best` (ties keep `best`, as
     /// [`Scene::cast`] does).
+    #[inline]
     fn consider(&self, i: usize, d: &Vector3<f64>, best: &mut Option<Candidate>) {
-        let o = &self.origin;
-        let found = match self.scene.solids[i].shape {
-            Shape::Room { min, max } => {
-                room_exit(o, d, &min, &max).map(|(t, axis)| (t, CandidateKind::Face { axis }))
-            }
-            Shape::Block { min, max } => block_entry_fast(o, d, &min, &max)
+        let found = match self.solids[i] {
+            Prepared::RoomInside(room) => room
+                .exit(d)
                 .map(|(t, axis)| (t, CandidateKind::Face { axis })),
-            Shape::Pole {
-                x,
-                y,
-                radius,
-                z_top,
-            } => pole_entry(o, d, x, y, radius, z_top).map(|(t, p)| (t, CandidateKind::Pole { p })),
+            Prepared::RoomOutside { min, max } => room_exit(&self.origin, d, &min, &max)
+                .map(|(t, axis)| (t, CandidateKind::Face { axis })),
+            Prepared::Block { to_min, to_max } => block_entry_from(d, &to_min, &to_max)
+                .map(|(t, axis)| (t, CandidateKind::Face { axis })),
+            Prepared::Pole { ox, oy, c, z_top } => {
+                pole_entry_from(&self.origin, d, ox, oy, c, z_top)
+                    .map(|(t, p)| (t, CandidateKind::Pole { p }))
+            }
         };
         if let Some((t, kind)) = found
             && best.is_none_or(|b| t < b.t)
@@ -305,24 +403,15 @@ impl View<'_> {
     fn cast(&self, dir: &Vector3<f64>, x_px: i32, y_px: i32) -> Option<Candidate> {
         let scene = self.scene;
         let mut best: Option<Candidate> = None;
-        for (&i, room) in scene.always.iter().zip(&self.rooms) {
-            match room {
-                Some(room) => {
-                    if let Some((t, axis)) = room.exit(dir)
-                        && best.is_none_or(|b| t < b.t)
-                    {
-                        best = Some(Candidate {
-                            t,
-                            solid: i,
-                            kind: CandidateKind::Face { axis },
-                        });
-                    }
-                }
-                None => self.consider(i, dir, &mut best),
-            }
+        for &i in &scene.always {
+            self.consider(i, dir, &mut best);
         }
         // The box of the root bounds every other solid.
-        if scene.nodes.is_empty() || !self.node_px[0].contains(x_px, y_px) {
+        if self
+            .nodes
+            .first()
+            .is_none_or(|root| !root.rect.contains(x_px, y_px))
+        {
             return best;
         }
         let inv = Vector3::new(1.0 / dir.x, 1.0 / dir.y, 1.0 / dir.z);
@@ -330,14 +419,13 @@ impl View<'_> {
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let index = stack[top] as usize;
+            let node = &self.nodes[stack[top] as usize];
             // A box whose pixels exclude this one fails the slab test below anyway.
-            if !self.node_px[index].contains(x_px, y_px) {
+            if !node.rect.contains(x_px, y_px) {
                 continue;
             }
-            let node = &scene.nodes[index];
             let limit = best.map_or(f64::INFINITY, |b| b.t);
-            if !slab_hit(&self.origin, &inv, &node.min, &node.max, limit) {
+            if !slab_hit_from(&inv, &node.to_min, &node.to_max, limit) {
                 continue;
             }
             match node.kind {
@@ -446,7 +534,7 @@ impl Surface for HitSurface {
 
 #[cfg(test)]
 mod tests {
-    use super::super::block_entry;
+    use super::super::{block_entry, pole_entry, slab_hit};
     use super::*;
     use crate::world::SceneKind;
     use faithd_core::camera::Mounting;
@@ -568,30 +656,57 @@ mod tests {
         }
     }
 
+    /// Blocks, poles and BVH boxes tested with the origin subtracted once per
+    /// render answer as the generic tests do.
     #[test]
-    fn block_entry_with_one_division_matches_the_generic_one() {
+    fn tests_prepared_per_render_match_the_generic_ones() {
         let (min, max) = (Vector3::new(1.0, -0.5, -2.0), Vector3::new(1.7, 0.4, 0.0));
         let around = (Vector3::new(-2.0, -3.0, -4.0), Vector3::new(4.0, 3.0, 1.0));
-        let mut hits = 0;
+        let (px, py, radius, z_top) = (1.35, -0.05, 0.35, -2.0);
+        let mut rng = Pcg64Mcg::seed_from_u64(10);
+        let (mut blocks, mut poles, mut slabs) = (0, 0, 0);
         for (i, (o, d)) in tie_heavy_rays(400_000, 10, around, (min, max))
             .into_iter()
             .enumerate()
         {
-            // Some origins exactly on a face plane (zero numerators).
-            let o = if i % 16 == 3 {
-                Vector3::new(min.x, o.y, o.z)
-            } else {
-                o
+            // Some origins exactly on a face plane (zero numerators), some of those
+            // with the ray in that plane (a NaN in the slab test).
+            let (o, d) = match i % 32 {
+                3 => (Vector3::new(min.x, o.y, o.z), d),
+                19 => (Vector3::new(min.x, o.y, o.z), Vector3::new(0.0, d.y, d.z)),
+                _ => (o, d),
             };
+            let (to_min, to_max) = (min - o, max - o);
             let generic = block_entry(&o, &d, &min, &max);
-            hits += usize::from(generic.is_some());
+            blocks += usize::from(generic.is_some());
             assert_eq!(
-                block_entry_fast(&o, &d, &min, &max),
+                block_entry_from(&d, &to_min, &to_max),
                 generic,
                 "ray {i}: {o:?} {d:?}"
             );
+            let (ox, oy) = (o.x - px, o.y - py);
+            let c = ox * ox + oy * oy - radius * radius;
+            let generic = pole_entry(&o, &d, px, py, radius, z_top);
+            poles += usize::from(generic.is_some());
+            assert_eq!(
+                pole_entry_from(&o, &d, ox, oy, c, z_top),
+                generic,
+                "ray {i}"
+            );
+            let inv = Vector3::new(1.0 / d.x, 1.0 / d.y, 1.0 / d.z);
+            let limit = rng.random_range(0.0..3.0);
+            let generic = slab_hit(&o, &inv, &min, &max, limit);
+            slabs += usize::from(generic);
+            assert_eq!(
+                slab_hit_from(&inv, &to_min, &to_max, limit),
+                generic,
+                "ray {i}"
+            );
         }
-        assert!(hits > 100_000, "{hits}");
+        assert!(
+            blocks > 100_000 && poles > 30_000 && slabs > 50_000,
+            "{blocks} {poles} {slabs}"
+        );
     }
 
     #[test]
