@@ -59,6 +59,8 @@ pub struct EventCamera {
     current_log: Vec<f32>,
     /// Depth of the last render per pixel, metres (for plots and checks).
     depth_m: Vec<f32>,
+    /// Reflectance of the last render per pixel, whose logarithm is `last_log`.
+    reflectance_seen: Vec<f64>,
     last_t_us: Option<i64>,
 }
 
@@ -92,6 +94,7 @@ impl EventCamera {
             last_log: vec![0.0; n],
             current_log: vec![0.0; n],
             depth_m: vec![0.0; n],
+            reflectance_seen: vec![f64::NAN; n],
             last_t_us: None,
         }
     }
@@ -123,20 +126,33 @@ impl EventCamera {
         let r = state.attitude.matrix();
         let world_to_camera = self.mounting.body_to_camera * r.transpose();
         let view = scene.view(&state.position_m, &world_to_camera, &self.camera);
-        let w = usize::from(self.camera.width_px);
-        // Neighbouring pixels often see exactly the same reflectance (inside a tile, a
-        // band, a board): the logarithm of an equal f64 is the same, so reuse it.
-        let mut last_reflectance = f64::NAN;
-        let mut last_log = 0.0f32;
+        let w = i32::from(self.camera.width_px);
+        // A pixel often sees exactly the reflectance its left neighbour saw (inside a
+        // tile, a band, a board), or the one it saw in the last render: the logarithm
+        // of an equal f64 is the same, so reuse it. `last_log` is still the last
+        // render's image here (and `reflectance_seen` NaN before the first).
+        let mut left_reflectance = f64::NAN;
+        let mut left_log = 0.0f32;
+        let (mut x_px, mut y_px) = (0, 0);
         for (i, ray_b) in self.rays_body.iter().enumerate() {
             let dir = r * ray_b;
-            let (x_px, y_px) = ((i % w) as i32, (i / w) as i32);
+            // Counted, not divided out of `i`: an integer division per pixel shows.
             let (reflectance, depth) = view.shade(&dir, x_px, y_px);
-            if reflectance != last_reflectance {
-                last_reflectance = reflectance;
-                last_log = reflectance.ln() as f32;
+            x_px += 1;
+            if x_px == w {
+                x_px = 0;
+                y_px += 1;
             }
-            self.current_log[i] = last_log;
+            if reflectance != left_reflectance {
+                left_reflectance = reflectance;
+                left_log = if reflectance == self.reflectance_seen[i] {
+                    self.last_log[i]
+                } else {
+                    reflectance.ln() as f32
+                };
+            }
+            self.current_log[i] = left_log;
+            self.reflectance_seen[i] = reflectance;
             self.depth_m[i] = depth as f32;
         }
     }

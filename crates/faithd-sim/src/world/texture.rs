@@ -180,9 +180,10 @@ impl Texture {
     /// `base * (1 + contrast * 0) = base` all the same. Features are located with a
     /// multiplication (see [`cell`]) and the exact coordinates divided out only for
     /// the noise terms that remain.
-    pub(crate) fn reflectance_of(&self, s: &impl Surface) -> f64 {
+    ///
+    /// `inv_scale` is `1 / scale_m`, worked out once per render by the caller.
+    pub(crate) fn reflectance_of(&self, s: &impl Surface, inv_scale: f64) -> f64 {
         let lazy = LazyFootprint::new(s, self.scale_m);
-        let inv_scale = 1.0 / self.scale_m;
         let p = match self.pattern {
             Pattern::Noise => {
                 let w1 = lazy.fade(1.0, |f| f);
@@ -287,9 +288,28 @@ fn floor(x: f64) -> f64 {
 
 /// Hash of an integer lattice point to [-1, 1].
 fn lattice(i: i64, j: i64, seed: u32) -> f64 {
-    let mut h = (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
-        ^ (j as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
-        ^ u64::from(seed).wrapping_mul(0x1656_67b1_9e37_79f9);
+    lattice_mix(lattice_i(i) ^ lattice_j(j) ^ lattice_seed(seed))
+}
+
+/// The three terms of a lattice hash, apart so that the corners of a noise cell can
+/// share them: `(i + 1) K = i K + K` in wrapping arithmetic.
+const LATTICE_I: u64 = 0x9e37_79b9_7f4a_7c15;
+const LATTICE_J: u64 = 0xc2b2_ae3d_27d4_eb4f;
+
+fn lattice_i(i: i64) -> u64 {
+    (i as u64).wrapping_mul(LATTICE_I)
+}
+
+fn lattice_j(j: i64) -> u64 {
+    (j as u64).wrapping_mul(LATTICE_J)
+}
+
+fn lattice_seed(seed: u32) -> u64 {
+    u64::from(seed).wrapping_mul(0x1656_67b1_9e37_79f9)
+}
+
+/// The finaliser of a lattice hash, to [-1, 1].
+fn lattice_mix(mut h: u64) -> f64 {
     h ^= h >> 33;
     h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
     h ^= h >> 33;
@@ -302,10 +322,13 @@ fn value_noise(u: f64, v: f64, seed: u32) -> f64 {
     let (fu, fv) = (u - iu, v - iv);
     let (su, sv) = (fu * fu * (3.0 - 2.0 * fu), fv * fv * (3.0 - 2.0 * fv));
     let (i, j) = (iu as i64, iv as i64);
-    let a = lattice(i, j, seed);
-    let b = lattice(i + 1, j, seed);
-    let c = lattice(i, j + 1, seed);
-    let d = lattice(i + 1, j + 1, seed);
+    let s = lattice_seed(seed);
+    let (hi0, hj0) = (lattice_i(i), lattice_j(j));
+    let (hi1, hj1) = (hi0.wrapping_add(LATTICE_I), hj0.wrapping_add(LATTICE_J));
+    let a = lattice_mix(hi0 ^ hj0 ^ s);
+    let b = lattice_mix(hi1 ^ hj0 ^ s);
+    let c = lattice_mix(hi0 ^ hj1 ^ s);
+    let d = lattice_mix(hi1 ^ hj1 ^ s);
     let top = a + (b - a) * su;
     let bottom = c + (d - c) * su;
     top + (bottom - top) * sv
@@ -314,6 +337,41 @@ fn value_noise(u: f64, v: f64, seed: u32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The hash as first written, term by term.
+    fn lattice_direct(i: i64, j: i64, seed: u32) -> f64 {
+        let mut h = (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ (j as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+            ^ u64::from(seed).wrapping_mul(0x1656_67b1_9e37_79f9);
+        h ^= h >> 33;
+        h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        h ^= h >> 33;
+        (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+
+    #[test]
+    fn lattice_corners_from_shared_terms_are_the_direct_hash() {
+        for (i, j) in [
+            (0, 0),
+            (-1, 5),
+            (i64::MAX, -3),
+            (i64::MIN, i64::MAX),
+            (123_456, -9),
+        ] {
+            for seed in [0, 7, u32::MAX] {
+                for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (a, b) = (i.wrapping_add(di), j.wrapping_add(dj));
+                    let shared = lattice_mix(
+                        lattice_i(i).wrapping_add(LATTICE_I * di as u64)
+                            ^ lattice_j(j).wrapping_add(LATTICE_J * dj as u64)
+                            ^ lattice_seed(seed),
+                    );
+                    assert_eq!(shared.to_bits(), lattice_direct(a, b, seed).to_bits());
+                    assert_eq!(lattice(a, b, seed).to_bits(), shared.to_bits());
+                }
+            }
+        }
+    }
 
     #[test]
     fn floor_matches_the_library_floor_bit_for_bit() {
@@ -433,7 +491,7 @@ mod tests {
             }
             let reference = t.reflectance(p.u_m, p.v_m, p.footprint_m());
             assert_eq!(
-                t.reflectance_of(&p).to_bits(),
+                t.reflectance_of(&p, 1.0 / scale_m).to_bits(),
                 reference.to_bits(),
                 "{pattern:?} scale {scale_m} at ({}, {}) footprint {}",
                 p.u_m,

@@ -6,9 +6,9 @@
 //! operation that reaches a result is reordered or replaced. What changes is what is
 //! not computed:
 //! - a box the ray provably misses is not tested ([`PixelRect`]);
-//! - of a room's or a block's distances along three axes, only the one that is the
-//!   answer is divided out: the others are ordered by cross-multiplication
-//!   ([`quotient_lt`]), exact except in near-ties, which take the divisions;
+//! - a room's exit is found without branches (its three divisions are independent
+//!   and pipeline well: ordering them by cross-multiplication instead, with a
+//!   division only for near-ties, was measured slower);
 //! - only the nearest hit is shaded (its texture coordinates, incidence, footprint),
 //!   and the texture asks only for what its result depends on
 //!   ([`crate::world::texture::Surface`]).
@@ -51,35 +51,6 @@ impl PixelRect {
     }
 }
 
-/// Products closer than this (relative) are ordered by the divisions themselves.
-const TIE_REL: f64 = 1e-12;
-/// Below this a product may have lost bits to underflow (or be zero): divide.
-const TINY: f64 = 1e-250;
-
-/// Whether `na / da < nb / db` as f64 divisions round them (`da`, `db` non-zero).
-///
-/// `na / da = (na sgn da) / |da|`, so the quotients are ordered as the products
-/// `na sgn(da) |db|` and `nb sgn(db) |da|`. Each product is within 2^-53 relative of
-/// its exact value and so is each rounded quotient: where the products differ by more
-/// than 1e-12 relative the rounded quotients are strictly ordered the same way.
-/// Closer (and for zero or tiny products) the divisions decide, as the generic code.
-#[inline]
-fn quotient_lt(na: f64, da: f64, nb: f64, db: f64) -> bool {
-    let x = (na * db.abs()).copysign(na * da);
-    let y = (nb * da.abs()).copysign(nb * db);
-    let (ax, ay) = (x.abs(), y.abs());
-    if ax.min(ay) > TINY {
-        let gap = TIE_REL * ax.max(ay);
-        if x < y - gap {
-            return true;
-        }
-        if x > y + gap {
-            return false;
-        }
-    }
-    na / da < nb / db
-}
-
 /// A room the camera is inside, with the signed distances from the camera to its
 /// walls along each axis (`min - o`, `max - o`: the same subtractions the generic
 /// intersection makes per ray).
@@ -90,29 +61,32 @@ struct RoomFromInside {
 }
 
 impl RoomFromInside {
-    /// `room_exit`, with one division instead of three.
+    /// `room_exit`, without branches: the three divisions are independent (and
+    /// pipelined), the smallest is picked with the generic code's ties (lowest axis).
+    #[inline]
     fn exit(&self, d: &Vector3<f64>) -> Option<(f64, usize)> {
-        let mut best: Option<(usize, f64)> = None;
-        for k in 0..3 {
-            if d[k].abs() < 1e-12 {
-                continue;
-            }
+        let t = |k: usize| {
             let n = if d[k] > 0.0 {
                 self.to_max[k]
             } else {
                 self.to_min[k]
             };
-            // The first axis always replaces the initial infinity (n / d is finite).
-            let nearer = match best {
-                None => true,
-                Some((b, nb)) => quotient_lt(n, d[k], nb, d[b]),
-            };
-            if nearer {
-                best = Some((k, n));
+            if d[k].abs() < 1e-12 {
+                f64::INFINITY
+            } else {
+                n / d[k]
             }
+        };
+        let (tx, ty, tz) = (t(0), t(1), t(2));
+        let (mut t_exit, mut axis) = (tx, 0);
+        if ty < t_exit {
+            t_exit = ty;
+            axis = 1;
         }
-        let (axis, n) = best?;
-        let t_exit = n / d[axis];
+        if tz < t_exit {
+            t_exit = tz;
+            axis = 2;
+        }
         if !(t_exit.is_finite() && t_exit > 0.0) {
             return None;
         }
@@ -178,6 +152,8 @@ pub(crate) struct View<'a> {
     pixel_rad: f64,
     /// Per solid.
     solids: Vec<Prepared>,
+    /// Per solid, `1 / texture.scale_m`.
+    inv_scales: Vec<f64>,
     /// Per BVH node.
     nodes: Vec<PreparedNode>,
 }
@@ -239,6 +215,11 @@ impl Scene {
             origin: *origin,
             pixel_rad: 1.0 / camera.fx_px,
             solids,
+            inv_scales: self
+                .solids
+                .iter()
+                .map(|s| 1.0 / s.texture.scale_m)
+                .collect(),
             nodes,
         }
     }
@@ -483,7 +464,12 @@ impl View<'_> {
             }
             (CandidateKind::Pole { .. }, _) => unreachable!("a pole hit is on a pole"),
         };
-        (solid.texture.reflectance_of(&surface), dist_m)
+        (
+            solid
+                .texture
+                .reflectance_of(&surface, self.inv_scales[hit.solid]),
+            dist_m,
+        )
     }
 }
 
@@ -640,7 +626,7 @@ mod tests {
     }
 
     #[test]
-    fn room_exit_with_one_division_matches_the_generic_one() {
+    fn branchless_room_exit_matches_the_generic_one() {
         let (min, max) = (Vector3::new(-6.0, -4.0, -3.5), Vector3::new(6.0, 4.0, 0.0));
         let inside = (min + Vector3::repeat(0.01), max - Vector3::repeat(0.01));
         for (i, (o, d)) in tie_heavy_rays(200_000, 9, inside, (min, max))
@@ -707,26 +693,5 @@ mod tests {
             blocks > 100_000 && poles > 30_000 && slabs > 50_000,
             "{blocks} {poles} {slabs}"
         );
-    }
-
-    #[test]
-    fn quotient_order_matches_the_divisions() {
-        let mut rng = Pcg64Mcg::seed_from_u64(12);
-        for i in 0..500_000 {
-            let na: f64 = rng.random_range(-10.0..10.0);
-            let da: f64 = rng.random_range(-1.0..1.0);
-            // Every fourth pair nearly tied, every eighth exactly.
-            let (nb, db) = match i % 8 {
-                0 => (na * 3.0, da * 3.0),
-                2 | 4 => (na * (1.0 + 1e-13 * rng.random_range(-3.0..3.0)), da),
-                6 => (0.0, da),
-                _ => (rng.random_range(-10.0..10.0), rng.random_range(-1.0..1.0)),
-            };
-            assert_eq!(
-                quotient_lt(na, da, nb, db),
-                na / da < nb / db,
-                "{na} / {da} vs {nb} / {db}"
-            );
-        }
     }
 }
