@@ -155,20 +155,12 @@ impl<'a, S: Surface> LazyFootprint<'a, S> {
 }
 
 /// `(floor(x), x - floor(x) < JOINT)` for `x = x_m / scale_m`, as the textures
-/// compute them, but with a multiplication by `1 / scale_m` where that cannot change
-/// either answer (the product is within 1e-15 relative of the quotient).
-fn cell(x_m: f64, scale_m: f64, inv_scale: f64) -> (f64, bool) {
-    let a = x_m * inv_scale;
-    let fa = floor(a);
-    let frac = a - fa;
-    let tol = CERTAIN_REL * a.abs().max(1.0);
-    if frac > tol && frac < 1.0 - tol && (frac - JOINT).abs() > tol {
-        (fa, frac < JOINT)
-    } else {
-        let x = x_m / scale_m;
-        let ix = floor(x);
-        (ix, x - ix < JOINT)
-    }
+/// compute them. (Multiplying by `1 / scale_m` where that provably gives the same
+/// answers was tried: no faster than the division, which pipelines.)
+fn cell(x_m: f64, scale_m: f64) -> (f64, bool) {
+    let x = x_m / scale_m;
+    let ix = floor(x);
+    (ix, x - ix < JOINT)
 }
 
 impl Texture {
@@ -177,12 +169,8 @@ impl Texture {
     ///
     /// A term whose fade is certainly 0 is left out: it is +-0, and adding a zero
     /// leaves any non-zero sum as it is, while a sum of zeros (of either sign) gives
-    /// `base * (1 + contrast * 0) = base` all the same. Features are located with a
-    /// multiplication (see [`cell`]) and the exact coordinates divided out only for
-    /// the noise terms that remain.
-    ///
-    /// `inv_scale` is `1 / scale_m`, worked out once per render by the caller.
-    pub(crate) fn reflectance_of(&self, s: &impl Surface, inv_scale: f64) -> f64 {
+    /// `base * (1 + contrast * 0) = base` all the same.
+    pub(crate) fn reflectance_of(&self, s: &impl Surface) -> f64 {
         let lazy = LazyFootprint::new(s, self.scale_m);
         let p = match self.pattern {
             Pattern::Noise => {
@@ -207,7 +195,7 @@ impl Texture {
                 }
             }
             Pattern::Planks => {
-                let (board, in_joint) = cell(s.u_m(), self.scale_m, inv_scale);
+                let (board, in_joint) = cell(s.u_m(), self.scale_m);
                 let joint = if in_joint {
                     -lazy.fade(0.5 / JOINT, |f| 0.5 * f / JOINT)
                 } else {
@@ -230,8 +218,8 @@ impl Texture {
                 (body + joint).clamp(-1.0, 1.0)
             }
             Pattern::Tiles => {
-                let (iu, u_joint) = cell(s.u_m(), self.scale_m, inv_scale);
-                let (iv, v_joint) = cell(s.v_m(), self.scale_m, inv_scale);
+                let (iu, u_joint) = cell(s.u_m(), self.scale_m);
+                let (iv, v_joint) = cell(s.v_m(), self.scale_m);
                 if u_joint || v_joint {
                     -lazy.fade(0.5 / JOINT, |f| 0.5 * f / JOINT)
                 } else {
@@ -248,7 +236,7 @@ impl Texture {
                 if w == 0.0 {
                     0.0
                 } else {
-                    let (iv, _) = cell(s.v_m(), self.scale_m, inv_scale);
+                    let (iv, _) = cell(s.v_m(), self.scale_m);
                     w * lattice(0, iv as i64, self.seed)
                 }
             }
@@ -491,7 +479,7 @@ mod tests {
             }
             let reference = t.reflectance(p.u_m, p.v_m, p.footprint_m());
             assert_eq!(
-                t.reflectance_of(&p, 1.0 / scale_m).to_bits(),
+                t.reflectance_of(&p).to_bits(),
                 reference.to_bits(),
                 "{pattern:?} scale {scale_m} at ({}, {}) footprint {}",
                 p.u_m,

@@ -152,8 +152,6 @@ pub(crate) struct View<'a> {
     pixel_rad: f64,
     /// Per solid.
     solids: Vec<Prepared>,
-    /// Per solid, `1 / texture.scale_m`.
-    inv_scales: Vec<f64>,
     /// Per BVH node.
     nodes: Vec<PreparedNode>,
 }
@@ -215,11 +213,6 @@ impl Scene {
             origin: *origin,
             pixel_rad: 1.0 / camera.fx_px,
             solids,
-            inv_scales: self
-                .solids
-                .iter()
-                .map(|s| 1.0 / s.texture.scale_m)
-                .collect(),
             nodes,
         }
     }
@@ -464,12 +457,7 @@ impl View<'_> {
             }
             (CandidateKind::Pole { .. }, _) => unreachable!("a pole hit is on a pole"),
         };
-        (
-            solid
-                .texture
-                .reflectance_of(&surface, self.inv_scales[hit.solid]),
-            dist_m,
-        )
+        (solid.texture.reflectance_of(&surface), dist_m)
     }
 }
 
