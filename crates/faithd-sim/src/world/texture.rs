@@ -258,15 +258,18 @@ fn fade(x: f64) -> f64 {
 /// `x.floor()`, exactly, without a call: the default x86-64 target has no SSE4.1
 /// `roundsd`, so `f64::floor` is a libm call, and textures floor twice per pixel.
 ///
-/// Truncation toward zero is exact below 2^52 (every such double's integer part is a
-/// double); one less for a negative non-integer. `copysign` keeps `floor(-0.0)` at
-/// -0.0 (the result otherwise always has the sign of `x`). NaN, infinities and
-/// larger magnitudes (integers already) take `f64::floor`.
+/// Below 2^52 in magnitude, adding and subtracting 2^52 (with the sign of `x`)
+/// rounds `x` to an integer (the spacing of doubles there is 1), exactly; one less
+/// where that rounded up. `copysign` keeps `floor(-0.0)` at -0.0 (the result otherwise
+/// always has the sign of `x`). NaN, infinities and larger magnitudes (integers
+/// already) take `f64::floor`. (An `as i64` round trip is exact too, but Rust's
+/// saturating cast costs more instructions.)
 #[inline]
 fn floor(x: f64) -> f64 {
     const TWO_52: f64 = 4_503_599_627_370_496.0;
     if x.abs() < TWO_52 {
-        let t = x as i64 as f64;
+        let c = TWO_52.copysign(x);
+        let t = (x + c) - c;
         let r = if t > x { t - 1.0 } else { t };
         r.copysign(x)
     } else {

@@ -94,20 +94,26 @@ impl RoomFromInside {
     }
 }
 
-/// The nearest hit of a ray, before any shading.
+/// The nearest hit of a ray so far, before any shading: small enough to stay in
+/// registers (a pole's hit point is recomputed for shading, the same expression).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Candidate {
+    /// Infinite while nothing is hit: every hit's distance is finite, so "nearer
+    /// than the best" is `t < best.t` as `Scene::cast`'s `is_none_or` has it.
     t: f64,
-    solid: usize,
-    kind: CandidateKind,
+    solid: u32,
+    /// The axis of the face's normal, or [`ON_POLE`].
+    axis: u8,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum CandidateKind {
-    /// On a face of a room or a block whose normal is along `axis`.
-    Face { axis: usize },
-    /// On the side of a pole, at `p`.
-    Pole { p: Vector3<f64> },
+const ON_POLE: u8 = 3;
+
+impl Candidate {
+    const NONE: Candidate = Candidate {
+        t: f64::INFINITY,
+        solid: u32::MAX,
+        axis: 0,
+    };
 }
 
 /// A solid seen from the camera: what its test subtracts from the ray's origin is
@@ -352,31 +358,32 @@ impl View<'_> {
     /// The nearest hit of solid `i`, if nearer than `best` (ties keep `best`, as
     /// [`Scene::cast`] does).
     #[inline]
-    fn consider(&self, i: usize, d: &Vector3<f64>, best: &mut Option<Candidate>) {
+    fn consider(&self, i: usize, d: &Vector3<f64>, best: &mut Candidate) {
         let found = match self.solids[i] {
-            Prepared::RoomInside(room) => room
-                .exit(d)
-                .map(|(t, axis)| (t, CandidateKind::Face { axis })),
-            Prepared::RoomOutside { min, max } => room_exit(&self.origin, d, &min, &max)
-                .map(|(t, axis)| (t, CandidateKind::Face { axis })),
-            Prepared::Block { to_min, to_max } => block_entry_from(d, &to_min, &to_max)
-                .map(|(t, axis)| (t, CandidateKind::Face { axis })),
+            Prepared::RoomInside(room) => room.exit(d),
+            Prepared::RoomOutside { min, max } => room_exit(&self.origin, d, &min, &max),
+            Prepared::Block { to_min, to_max } => block_entry_from(d, &to_min, &to_max),
             Prepared::Pole { ox, oy, c, z_top } => {
                 pole_entry_from(&self.origin, d, ox, oy, c, z_top)
-                    .map(|(t, p)| (t, CandidateKind::Pole { p }))
+                    .map(|(t, _)| (t, usize::from(ON_POLE)))
             }
         };
-        if let Some((t, kind)) = found
-            && best.is_none_or(|b| t < b.t)
+        if let Some((t, axis)) = found
+            && t < best.t
         {
-            *best = Some(Candidate { t, solid: i, kind });
+            *best = Candidate {
+                t,
+                solid: i as u32,
+                axis: axis as u8,
+            };
         }
     }
 
     /// [`Scene::cast`] for the ray `dir` of pixel (`x_px`, `y_px`), unshaded.
-    fn cast(&self, dir: &Vector3<f64>, x_px: i32, y_px: i32) -> Option<Candidate> {
+    #[inline]
+    fn cast(&self, dir: &Vector3<f64>, x_px: i32, y_px: i32) -> Candidate {
         let scene = self.scene;
-        let mut best: Option<Candidate> = None;
+        let mut best = Candidate::NONE;
         for &i in &scene.always {
             self.consider(i, dir, &mut best);
         }
@@ -398,8 +405,7 @@ impl View<'_> {
             if !node.rect.contains(x_px, y_px) {
                 continue;
             }
-            let limit = best.map_or(f64::INFINITY, |b| b.t);
-            if !slab_hit_from(&inv, &node.to_min, &node.to_max, limit) {
+            if !slab_hit_from(&inv, &node.to_min, &node.to_max, best.t) {
                 continue;
             }
             match node.kind {
@@ -421,30 +427,19 @@ impl View<'_> {
     }
 
     /// [`Scene::shade`] (same bits) for the ray `dir` of pixel (`x_px`, `y_px`).
+    #[inline]
     pub(crate) fn shade(&self, dir: &Vector3<f64>, x_px: i32, y_px: i32) -> (f64, f64) {
-        let Some(hit) = self.cast(dir, x_px, y_px) else {
+        let hit = self.cast(dir, x_px, y_px);
+        if hit.solid == u32::MAX {
             return (0.05, f64::INFINITY);
-        };
+        }
         let norm = dir.norm();
         let dist_m = hit.t * norm;
-        let solid = &self.scene.solids[hit.solid];
-        let p = match hit.kind {
-            CandidateKind::Face { .. } => self.origin + dir * hit.t,
-            CandidateKind::Pole { p } => p,
-        };
-        let surface = match (hit.kind, &solid.shape) {
-            (CandidateKind::Face { axis }, _) => {
-                let (u_m, v_m) = face_uv(&p, axis);
-                HitSurface {
-                    u: SurfaceU::Known(u_m),
-                    v_m,
-                    dist_m,
-                    pixel_rad: self.pixel_rad,
-                    norm,
-                    cos_num: dir[axis].abs(),
-                }
-            }
-            (CandidateKind::Pole { .. }, &Shape::Pole { x, y, radius, .. }) => {
+        let solid = &self.scene.solids[hit.solid as usize];
+        // As `face_hit` and `pole_entry` compute it.
+        let p = self.origin + dir * hit.t;
+        let surface = match (hit.axis, &solid.shape) {
+            (ON_POLE, &Shape::Pole { x, y, radius, .. }) => {
                 let (nx, ny) = pole_normal(&p, x, y, radius);
                 HitSurface {
                     u: SurfaceU::AroundPole { nx, ny, radius },
@@ -455,7 +450,19 @@ impl View<'_> {
                     cos_num: (nx * dir.x + ny * dir.y).abs(),
                 }
             }
-            (CandidateKind::Pole { .. }, _) => unreachable!("a pole hit is on a pole"),
+            (ON_POLE, _) => unreachable!("a pole hit is on a pole"),
+            (axis, _) => {
+                let axis = usize::from(axis);
+                let (u_m, v_m) = face_uv(&p, axis);
+                HitSurface {
+                    u: SurfaceU::Known(u_m),
+                    v_m,
+                    dist_m,
+                    pixel_rad: self.pixel_rad,
+                    norm,
+                    cos_num: dir[axis].abs(),
+                }
+            }
         };
         (solid.texture.reflectance_of(&surface), dist_m)
     }
