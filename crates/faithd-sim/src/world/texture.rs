@@ -304,7 +304,9 @@ fn lattice_mix(mut h: u64) -> f64 {
     h ^= h >> 33;
     h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
     h ^= h >> 33;
-    (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    // Below 2^53 either conversion is exact; x86-64 converts an i64 in one
+    // instruction and a u64 in several.
+    ((h >> 11) as i64) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
 /// Bilinear value noise with smoothstep weights, in [-1, 1].
