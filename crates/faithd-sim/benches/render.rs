@@ -58,6 +58,15 @@ fn bench_render(c: &mut Criterion) {
             })
         });
     }
+    // The bound an adaptive render rate is chosen from: a pass over the depth map.
+    let scene = SceneKind::Arena.build(1);
+    let flight = Trajectory::straight([-1.0, 0.1, -1.2], 0.0, 0.0, 2.0);
+    let mut camera = EventCamera::new(intrinsics, Mounting::forward(), DvsConfig::default(), 7);
+    let state = flight.state(0.05);
+    camera.advance(&scene, &state, 0, &mut Vec::new());
+    group.bench_function("speed_bound_arena", |b| {
+        b.iter(|| black_box(camera.max_image_speed_px_s(black_box(&state))))
+    });
     group.finish();
 }
 
