@@ -170,6 +170,10 @@ impl Texture {
     /// A term whose fade is certainly 0 is left out: it is +-0, and adding a zero
     /// leaves any non-zero sum as it is, while a sum of zeros (of either sign) gives
     /// `base * (1 + contrast * 0) = base` all the same.
+    ///
+    /// Inlined into the render loop: 7 % faster on the arena, 3 % slower on the
+    /// shelves and the warehouse (inlining only the tiles and bands was in between).
+    #[inline]
     pub(crate) fn reflectance_of(&self, s: &impl Surface) -> f64 {
         let lazy = LazyFootprint::new(s, self.scale_m);
         let p = match self.pattern {
