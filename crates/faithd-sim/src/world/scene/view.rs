@@ -18,7 +18,7 @@ use nalgebra::{Matrix3, Vector3};
 use faithd_core::camera::CameraIntrinsics;
 
 use super::{NodeKind, STACK_DEPTH, Scene, Shape, face_uv, pole_normal, room_exit};
-use crate::world::texture::Surface;
+use crate::world::texture::{LatticeMemo, Surface};
 
 /// Corners nearer the camera plane than this give no pixel bounds (their projection
 /// is unbounded or behind): the node is then tested by every ray.
@@ -160,6 +160,8 @@ pub(crate) struct View<'a> {
     solids: Vec<Prepared>,
     /// Per BVH node.
     nodes: Vec<PreparedNode>,
+    /// The last texture lattice hash (renders go along rows).
+    memo: LatticeMemo,
 }
 
 impl Scene {
@@ -220,6 +222,7 @@ impl Scene {
             pixel_rad: 1.0 / camera.fx_px,
             solids,
             nodes,
+            memo: LatticeMemo::new(),
         }
     }
 }
@@ -464,7 +467,7 @@ impl View<'_> {
                 }
             }
         };
-        (solid.texture.reflectance_of(&surface), dist_m)
+        (solid.texture.reflectance_of(&surface, &self.memo), dist_m)
     }
 }
 
