@@ -188,16 +188,16 @@ impl Texture {
                 } else {
                     let (u, v) = (s.u_m() / self.scale_m, s.v_m() / self.scale_m);
                     // `1.0 * u` is `u`, bit for bit.
-                    let term = |weight: f64, w: f64, k: f64, seed: u32| {
+                    let term = |site: usize, weight: f64, w: f64, k: f64, seed: u32| {
                         if w == 0.0 {
                             0.0
                         } else {
-                            weight * w * value_noise(k * u, k * v, seed)
+                            weight * w * memo.value_noise(site, k * u, k * v, seed)
                         }
                     };
-                    term(0.6, w1, 1.0, self.seed)
-                        + term(0.3, w2, 2.03, self.seed ^ 0x9e37)
-                        + term(0.1, w3, 4.1, self.seed ^ 0x7f4a)
+                    term(0, 0.6, w1, 1.0, self.seed)
+                        + term(1, 0.3, w2, 2.03, self.seed ^ 0x9e37)
+                        + term(2, 0.1, w3, 4.1, self.seed ^ 0x7f4a)
                 }
             }
             Pattern::Planks => {
@@ -217,7 +217,7 @@ impl Texture {
                         0.0
                     } else {
                         let (u, v) = (s.u_m() / self.scale_m, s.v_m() / self.scale_m);
-                        0.25 * w6 * value_noise(u * 6.0, v * 0.4, self.seed ^ 0x51)
+                        0.25 * w6 * memo.value_noise(3, u * 6.0, v * 0.4, self.seed ^ 0x51)
                     };
                     w1 * (0.7 * shade + grain)
                 };
@@ -288,6 +288,9 @@ fn floor(x: f64) -> f64 {
 pub(crate) struct LatticeMemo {
     key: std::cell::Cell<(i64, i64, u32)>,
     value: std::cell::Cell<f64>,
+    /// The last noise cell's corners, per call site of [`value_noise`] (the three
+    /// octaves and the grain of planks): `(i, j, seed)` and the four values.
+    cells: [std::cell::Cell<((i64, i64, u32), [f64; 4])>; 4],
 }
 
 impl LatticeMemo {
@@ -295,7 +298,26 @@ impl LatticeMemo {
         Self {
             key: std::cell::Cell::new((0, 0, 0)),
             value: std::cell::Cell::new(lattice(0, 0, 0)),
+            cells: std::array::from_fn(|_| {
+                std::cell::Cell::new(((0, 0, 0), noise_corners(0, 0, 0)))
+            }),
         }
+    }
+
+    /// `value_noise(u, v, seed)`, keeping the cell's corners in slot `site`.
+    #[inline]
+    fn value_noise(&self, site: usize, u: f64, v: f64, seed: u32) -> f64 {
+        let (iu, iv) = (floor(u), floor(v));
+        let key = (iu as i64, iv as i64, seed);
+        let (cached, corners) = self.cells[site].get();
+        let corners = if cached == key {
+            corners
+        } else {
+            let corners = noise_corners(key.0, key.1, seed);
+            self.cells[site].set((key, corners));
+            corners
+        };
+        noise_blend(u - iu, v - iv, corners)
     }
 
     /// `lattice(i, j, seed)`.
@@ -346,16 +368,26 @@ fn lattice_mix(mut h: u64) -> f64 {
 /// Bilinear value noise with smoothstep weights, in [-1, 1].
 fn value_noise(u: f64, v: f64, seed: u32) -> f64 {
     let (iu, iv) = (floor(u), floor(v));
-    let (fu, fv) = (u - iu, v - iv);
-    let (su, sv) = (fu * fu * (3.0 - 2.0 * fu), fv * fv * (3.0 - 2.0 * fv));
     let (i, j) = (iu as i64, iv as i64);
+    noise_blend(u - iu, v - iv, noise_corners(i, j, seed))
+}
+
+/// The lattice values at the corners (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1).
+fn noise_corners(i: i64, j: i64, seed: u32) -> [f64; 4] {
     let s = lattice_seed(seed);
     let (hi0, hj0) = (lattice_i(i), lattice_j(j));
     let (hi1, hj1) = (hi0.wrapping_add(LATTICE_I), hj0.wrapping_add(LATTICE_J));
-    let a = lattice_mix(hi0 ^ hj0 ^ s);
-    let b = lattice_mix(hi1 ^ hj0 ^ s);
-    let c = lattice_mix(hi0 ^ hj1 ^ s);
-    let d = lattice_mix(hi1 ^ hj1 ^ s);
+    [
+        lattice_mix(hi0 ^ hj0 ^ s),
+        lattice_mix(hi1 ^ hj0 ^ s),
+        lattice_mix(hi0 ^ hj1 ^ s),
+        lattice_mix(hi1 ^ hj1 ^ s),
+    ]
+}
+
+/// Bilinear interpolation with smoothstep weights at (fu, fv) in the cell.
+fn noise_blend(fu: f64, fv: f64, [a, b, c, d]: [f64; 4]) -> f64 {
+    let (su, sv) = (fu * fu * (3.0 - 2.0 * fu), fv * fv * (3.0 - 2.0 * fv));
     let top = a + (b - a) * su;
     let bottom = c + (d - c) * su;
     top + (bottom - top) * sv
