@@ -290,8 +290,11 @@ pub(crate) struct LatticeMemo {
     value: std::cell::Cell<f64>,
     /// The last noise cell's corners, per call site of [`value_noise`] (the three
     /// octaves and the grain of planks): `(i, j, seed)` and the four values.
-    cells: [std::cell::Cell<((i64, i64, u32), [f64; 4])>; 4],
+    cells: [std::cell::Cell<NoiseCell>; 4],
 }
+
+/// A noise cell, `(i, j, seed)`, and its corner values.
+type NoiseCell = ((i64, i64, u32), [f64; 4]);
 
 impl LatticeMemo {
     pub(crate) fn new() -> Self {
