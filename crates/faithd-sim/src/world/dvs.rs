@@ -60,7 +60,8 @@ pub struct EventCamera {
     last_event_us: Vec<i64>,
     last_log: Vec<f32>,
     current_log: Vec<f32>,
-    /// Depth of the last render per pixel, metres (for plots and checks).
+    /// Depth of the last render per pixel, metres (for plots, checks and the
+    /// image-speed bound).
     depth_m: Vec<f32>,
     /// Reflectance of the last render per pixel, whose logarithm is `last_log`.
     reflectance_seen: Vec<f64>,
@@ -144,7 +145,7 @@ impl EventCamera {
     /// - plus 1 % for the second-order change of the flow within a render interval.
     ///
     /// The bound is for the pose of the last render; before the first render it is
-    /// infinite (depths are 0). Its cost is a pass over the depth map and a few
+    /// infinite for a moving camera (depths are 0). Its cost is a pass over the depth map and a few
     /// flops per block: a few per cent of a render.
     pub fn max_image_speed_px_s(&self, state: &VehicleState) -> f64 {
         let world_to_camera = self.mounting.body_to_camera * state.attitude.matrix().transpose();
@@ -165,25 +166,23 @@ impl EventCamera {
         // Over a block the translational flow's squared length is largest at an x
         // and a y extreme, each chosen apart: per block column and per block row.
         const BLOCK: usize = 4;
-        let span = |first: usize, count: usize, to_n: &dyn Fn(f64) -> f64| {
-            (0..count.div_ceil(BLOCK))
-                .map(|b| {
-                    let (lo, hi) = (b * BLOCK, ((b + 1) * BLOCK).min(count) - 1);
-                    (to_n((first + lo) as f64), to_n((first + hi) as f64))
-                })
-                .collect::<Vec<_>>()
+        // First and last pixel of each block along an axis of `count` pixels.
+        let blocks = |count: usize| {
+            (0..count.div_ceil(BLOCK)).map(move |b| (b * BLOCK, ((b + 1) * BLOCK).min(count) - 1))
         };
-        let columns: Vec<(f64, f64)> = span(0, width, &|x| cam.normalise(x, 0.0).0)
-            .into_iter()
-            .map(|(xa, xb)| {
+        let columns: Vec<(f64, f64)> = blocks(width)
+            .map(|(first, last)| {
+                let x = |px: usize| cam.normalise(px as f64, 0.0).0;
                 let flow = |x: f64| (cam.fx_px * (x * v.z - v.x)).powi(2);
+                let (xa, xb) = (x(first), x(last));
                 (flow(xa).max(flow(xb)), xa.abs().max(xb.abs()).powi(2))
             })
             .collect();
-        let rows: Vec<(f64, f64)> = span(0, height, &|y| cam.normalise(0.0, y).1)
-            .into_iter()
-            .map(|(ya, yb)| {
+        let rows: Vec<(f64, f64)> = blocks(height)
+            .map(|(first, last)| {
+                let y = |px: usize| cam.normalise(0.0, px as f64).1;
                 let flow = |y: f64| (cam.fy_px * (y * v.z - v.y)).powi(2);
+                let (ya, yb) = (y(first), y(last));
                 (flow(ya).max(flow(yb)), ya.abs().max(yb.abs()).powi(2))
             })
             .collect();
@@ -228,7 +227,7 @@ impl EventCamera {
         let (mut x_px, mut y_px) = (0, 0);
         for (i, ray_b) in self.rays_body.iter().enumerate() {
             let dir = r * ray_b;
-            // Counted, not divided out of `i`: an integer division per pixel shows.
+            // The pixel's coordinates, counted along (the view culls boxes by pixel).
             let (reflectance, depth) = view.shade(&dir, x_px, y_px);
             x_px += 1;
             if x_px == w {
