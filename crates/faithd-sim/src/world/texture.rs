@@ -171,10 +171,11 @@ impl Texture {
     /// leaves any non-zero sum as it is, while a sum of zeros (of either sign) gives
     /// `base * (1 + contrast * 0) = base` all the same.
     ///
+    /// `memo` keeps the last lattice hashes: neighbouring pixels mostly see the same
+    /// tile, band, board or noise cell.
+    ///
     /// Inlined into the render loop: 7 % faster on the arena, 3 % slower on the
     /// shelves and the warehouse (inlining only the tiles and bands was in between).
-    /// `memo` keeps the last lattice hash: neighbouring pixels mostly see the same
-    /// tile, band or board.
     #[inline]
     pub(crate) fn reflectance_of(&self, s: &impl Surface, memo: &LatticeMemo) -> f64 {
         let lazy = LazyFootprint::new(s, self.scale_m);
