@@ -225,7 +225,14 @@ impl EventCamera {
         let mut left_reflectance = f64::NAN;
         let mut left_log = 0.0f32;
         let (mut x_px, mut y_px) = (0, 0);
-        for (i, ray_b) in self.rays_body.iter().enumerate() {
+        let pixels = self
+            .rays_body
+            .iter()
+            .zip(self.current_log.iter_mut())
+            .zip(self.reflectance_seen.iter_mut())
+            .zip(self.depth_m.iter_mut())
+            .zip(&self.last_log);
+        for ((((ray_b, log), seen), depth_m), last_log) in pixels {
             let dir = r * ray_b;
             // The pixel's coordinates, counted along (the view culls boxes by pixel).
             let (reflectance, depth) = view.shade(&dir, x_px, y_px);
@@ -236,15 +243,15 @@ impl EventCamera {
             }
             if reflectance != left_reflectance {
                 left_reflectance = reflectance;
-                left_log = if reflectance == self.reflectance_seen[i] {
-                    self.last_log[i]
+                left_log = if reflectance == *seen {
+                    *last_log
                 } else {
                     reflectance.ln() as f32
                 };
             }
-            self.current_log[i] = left_log;
-            self.reflectance_seen[i] = reflectance;
-            self.depth_m[i] = depth as f32;
+            *log = left_log;
+            *seen = reflectance;
+            *depth_m = depth as f32;
         }
     }
 

@@ -125,8 +125,9 @@ impl<'a, S: Surface> LazyFootprint<'a, S> {
             surface,
             scale_m,
             num,
-            den_lo: 0.25 * den * (1.0 - CERTAIN_REL),
-            den_hi: 0.5 * den * (1.0 + CERTAIN_REL),
+            // One multiplication each: a bound, so the order of rounding is free.
+            den_lo: den * (0.25 * (1.0 - CERTAIN_REL)),
+            den_hi: den * (0.5 * (1.0 + CERTAIN_REL)),
             exact: std::cell::Cell::new(None),
         }
     }
