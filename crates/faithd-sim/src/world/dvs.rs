@@ -43,6 +43,9 @@ impl Default for DvsConfig {
     }
 }
 
+/// Relative margin on the image-speed bound, see [`EventCamera::max_image_speed_px_s`].
+const SPEED_MARGIN: f64 = 0.01;
+
 /// Per-pixel state of the emulated sensor.
 pub struct EventCamera {
     camera: CameraIntrinsics,
@@ -57,8 +60,11 @@ pub struct EventCamera {
     last_event_us: Vec<i64>,
     last_log: Vec<f32>,
     current_log: Vec<f32>,
-    /// Depth of the last render per pixel, metres (for plots and checks).
+    /// Depth of the last render per pixel, metres (for plots, checks and the
+    /// image-speed bound).
     depth_m: Vec<f32>,
+    /// Reflectance of the last render per pixel, whose logarithm is `last_log`.
+    reflectance_seen: Vec<f64>,
     last_t_us: Option<i64>,
 }
 
@@ -92,6 +98,7 @@ impl EventCamera {
             last_log: vec![0.0; n],
             current_log: vec![0.0; n],
             depth_m: vec![0.0; n],
+            reflectance_seen: vec![f64::NAN; n],
             last_t_us: None,
         }
     }
@@ -113,15 +120,138 @@ impl EventCamera {
         &self.depth_m
     }
 
+    /// Log intensity per pixel of the last render, row-major: what the events are
+    /// fired from (for checks that a faster renderer sees the same image).
+    pub fn log_intensity(&self) -> &[f32] {
+        &self.last_log
+    }
+
+    /// A bound on how fast any pixel's content moves across the image, px/s, for a
+    /// vehicle in `state` seeing the scene of the last render (its depth map): what
+    /// an adaptive render rate needs (ESIM renders more often when the image moves
+    /// faster), see [`render_interval_us`].
+    ///
+    /// The motion field of a static point at normalised image position (x, y) and
+    /// depth Z along the optical axis, for a camera moving at v and turning at w
+    /// (both in camera axes), is a translational part `((x v_z - v_x) / Z,
+    /// (y v_z - v_y) / Z)` plus a rotational part independent of depth (the one
+    /// derotation removes, see `faithd_core::derotate`). The bound is the largest
+    /// translational flow plus the largest rotational flow:
+    /// - translation, per 4x4 block of pixels: the nearest depth in the block (every
+    ///   pixel is read, so no thin pole between samples is missed), divided by the
+    ///   largest ray length `sqrt(1 + x^2 + y^2)` in the block to get Z, and the
+    ///   numerator at the block's corners (its length is convex in x and y);
+    /// - rotation: each term at the sensor's largest |x| and |y|;
+    /// - plus 1 % for the second-order change of the flow within a render interval.
+    ///
+    /// The bound is for the pose of the last render; before the first render it is
+    /// infinite for a moving camera (depths are 0). Its cost is a pass over the depth map and a few
+    /// flops per block: a few per cent of a render.
+    pub fn max_image_speed_px_s(&self, state: &VehicleState) -> f64 {
+        let world_to_camera = self.mounting.body_to_camera * state.attitude.matrix().transpose();
+        let v = world_to_camera * state.velocity_m_s;
+        let w = self.mounting.rates_in_camera(state.body_rates_rad_s);
+        let cam = &self.camera;
+        let (width, height) = (usize::from(cam.width_px), usize::from(cam.height_px));
+        let (x_first, y_first) = cam.normalise(0.0, 0.0);
+        let (x_last, y_last) = cam.normalise((width - 1) as f64, (height - 1) as f64);
+        let (ax, ay) = (
+            x_first.abs().max(x_last.abs()),
+            y_first.abs().max(y_last.abs()),
+        );
+        let rot_u = ax * ay * w.x.abs() + (1.0 + ax * ax) * w.y.abs() + ay * w.z.abs();
+        let rot_v = (1.0 + ay * ay) * w.x.abs() + ax * ay * w.y.abs() + ax * w.z.abs();
+        let rotation_px_s = (cam.fx_px * rot_u).hypot(cam.fy_px * rot_v);
+
+        // Over a block the translational flow's squared length is largest at an x
+        // and a y extreme, each chosen apart: per block column and per block row.
+        const BLOCK: usize = 4;
+        // First and last pixel of each block along an axis of `count` pixels.
+        let blocks = |count: usize| {
+            (0..count.div_ceil(BLOCK)).map(move |b| (b * BLOCK, ((b + 1) * BLOCK).min(count) - 1))
+        };
+        let columns: Vec<(f64, f64)> = blocks(width)
+            .map(|(first, last)| {
+                let x = |px: usize| cam.normalise(px as f64, 0.0).0;
+                let flow = |x: f64| (cam.fx_px * (x * v.z - v.x)).powi(2);
+                let (xa, xb) = (x(first), x(last));
+                (flow(xa).max(flow(xb)), xa.abs().max(xb.abs()).powi(2))
+            })
+            .collect();
+        let rows: Vec<(f64, f64)> = blocks(height)
+            .map(|(first, last)| {
+                let y = |px: usize| cam.normalise(0.0, px as f64).1;
+                let flow = |y: f64| (cam.fy_px * (y * v.z - v.y)).powi(2);
+                let (ya, yb) = (y(first), y(last));
+                (flow(ya).max(flow(yb)), ya.abs().max(yb.abs()).powi(2))
+            })
+            .collect();
+        let mut nearest_m = vec![f32::INFINITY; columns.len()];
+        // The largest (numerator / Z)^2 = numerator^2 (1 + x^2 + y^2) / depth^2.
+        let mut translation_sq: f64 = 0.0;
+        for (by, &(flow_y, y_sq)) in rows.iter().enumerate() {
+            nearest_m.fill(f32::INFINITY);
+            let last_row = ((by + 1) * BLOCK).min(height);
+            for row in self.depth_m[by * BLOCK * width..last_row * width].chunks_exact(width) {
+                for (nearest, block) in nearest_m.iter_mut().zip(row.chunks(BLOCK)) {
+                    *nearest = block.iter().fold(*nearest, |a, &b| a.min(b));
+                }
+            }
+            for (&depth_m, &(flow_x, x_sq)) in nearest_m.iter().zip(&columns) {
+                let numerator_sq = flow_x + flow_y;
+                if depth_m < f32::INFINITY && numerator_sq > 0.0 {
+                    let depth_m = f64::from(depth_m);
+                    translation_sq = translation_sq
+                        .max(numerator_sq * (1.0 + x_sq + y_sq) / (depth_m * depth_m));
+                }
+            }
+        }
+        let translation_px_s = translation_sq.sqrt();
+        // The motion field is the instantaneous speed; a point's displacement over a
+        // millisecond differs from it to second order (a turning camera sweeps a
+        // point along a curve), by a fraction of a per cent at these rates.
+        (translation_px_s + rotation_px_s) * (1.0 + SPEED_MARGIN)
+    }
+
     fn render(&mut self, scene: &Scene, state: &VehicleState) {
         let r = state.attitude.matrix();
-        let o = state.position_m;
-        let pixel_rad = 1.0 / self.camera.fx_px;
-        for (i, ray_b) in self.rays_body.iter().enumerate() {
+        let world_to_camera = self.mounting.body_to_camera * r.transpose();
+        let view = scene.view(&state.position_m, &world_to_camera, &self.camera);
+        let w = i32::from(self.camera.width_px);
+        // A pixel often sees exactly the reflectance its left neighbour saw (inside a
+        // tile, a band, a board), or the one it saw in the last render: the logarithm
+        // of an equal f64 is the same, so reuse it. `last_log` is still the last
+        // render's image here (and `reflectance_seen` NaN before the first).
+        let mut left_reflectance = f64::NAN;
+        let mut left_log = 0.0f32;
+        let (mut x_px, mut y_px) = (0, 0);
+        let pixels = self
+            .rays_body
+            .iter()
+            .zip(self.current_log.iter_mut())
+            .zip(self.reflectance_seen.iter_mut())
+            .zip(self.depth_m.iter_mut())
+            .zip(&self.last_log);
+        for ((((ray_b, log), seen), depth_m), last_log) in pixels {
             let dir = r * ray_b;
-            let (reflectance, depth) = scene.shade(&o, &dir, pixel_rad);
-            self.current_log[i] = reflectance.ln() as f32;
-            self.depth_m[i] = depth as f32;
+            // The pixel's coordinates, counted along (the view culls boxes by pixel).
+            let (reflectance, depth) = view.shade(&dir, x_px, y_px);
+            x_px += 1;
+            if x_px == w {
+                x_px = 0;
+                y_px += 1;
+            }
+            if reflectance != left_reflectance {
+                left_reflectance = reflectance;
+                left_log = if reflectance == *seen {
+                    *last_log
+                } else {
+                    reflectance.ln() as f32
+                };
+            }
+            *log = left_log;
+            *seen = reflectance;
+            *depth_m = depth as f32;
         }
     }
 
@@ -195,4 +325,29 @@ impl EventCamera {
             ));
         }
     }
+}
+
+/// The next render interval of an adaptive render rate: as long as it takes the
+/// fastest pixel (`speed_px_s`, see [`EventCamera::max_image_speed_px_s`]) to move
+/// `max_displacement_px`, within `min_us..=max_us`.
+///
+/// Crossings between renders are interpolated linearly, which is right while an edge
+/// moves less than a pixel or so between them; a static image needs few renders and a
+/// fast one many. Rounded down, so the displacement stays within the bound. An
+/// unknown speed (NaN) gets the shortest interval, a still image the longest.
+pub fn render_interval_us(
+    speed_px_s: f64,
+    max_displacement_px: f64,
+    min_us: i64,
+    max_us: i64,
+) -> i64 {
+    if speed_px_s.is_nan() {
+        return min_us;
+    }
+    if speed_px_s <= 0.0 {
+        return max_us;
+    }
+    let interval_us = (max_displacement_px / speed_px_s * 1e6).floor();
+    // `as` saturates (an infinite interval becomes i64::MAX) before the clamp.
+    (interval_us as i64).clamp(min_us, max_us)
 }

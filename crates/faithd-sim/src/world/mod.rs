@@ -15,7 +15,7 @@ pub mod scenes;
 pub mod texture;
 pub mod trajectory;
 
-pub use dvs::{DvsConfig, EventCamera};
+pub use dvs::{DvsConfig, EventCamera, render_interval_us};
 pub use scene::Scene;
 pub use scenes::SceneKind;
 pub use trajectory::{Trajectory, VehicleState};

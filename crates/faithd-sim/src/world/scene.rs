@@ -5,6 +5,8 @@ use nalgebra::Vector3;
 
 use super::texture::Texture;
 
+mod view;
+
 /// One solid of the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Shape {
@@ -54,13 +56,17 @@ struct Node {
     kind: NodeKind,
 }
 
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum NodeKind {
     Leaf { first: usize, count: usize },
     Inner { left: usize, right: usize },
 }
 
 const LEAF_SIZE: usize = 4;
+
+/// Capacity of the traversal stack; children beyond it are not visited (never reached:
+/// a tree of 2^60 leaves would be needed).
+const STACK_DEPTH: usize = 64;
 
 /// The nearest surface along a ray: distance, texture coordinates and the cosine of
 /// the incidence angle (1 = face-on), which sets how large a pixel's footprint is.
@@ -139,8 +145,9 @@ impl Scene {
     /// Nearest hit of the ray `origin + t * dir`, t > 0.
     pub fn cast(&self, origin: &Vector3<f64>, dir: &Vector3<f64>) -> Option<Hit> {
         let mut best: Option<Hit> = None;
+        let norm = dir.norm();
         let consider = |i: usize, best: &mut Option<Hit>| {
-            if let Some(h) = self.solids[i].shape.intersect(origin, dir)
+            if let Some(h) = self.solids[i].shape.intersect_with_norm(origin, dir, norm)
                 && best.is_none_or(|b| h.t < b.t)
             {
                 *best = Some(Hit { solid: i, ..h });
@@ -153,11 +160,12 @@ impl Scene {
             return best;
         }
         let inv = Vector3::new(1.0 / dir.x, 1.0 / dir.y, 1.0 / dir.z);
-        let mut stack = [0usize; 64];
+        // u32, not usize: a 512-byte stack was zeroed by a memset call on every ray.
+        let mut stack = [0u32; STACK_DEPTH];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let node = &self.nodes[stack[top]];
+            let node = &self.nodes[stack[top] as usize];
             let limit = best.map_or(f64::INFINITY, |b| b.t);
             if !slab_hit(origin, &inv, &node.min, &node.max, limit) {
                 continue;
@@ -170,8 +178,8 @@ impl Scene {
                 }
                 NodeKind::Inner { left, right } => {
                     if top + 2 <= stack.len() {
-                        stack[top] = right;
-                        stack[top + 1] = left;
+                        stack[top] = right as u32;
+                        stack[top + 1] = left as u32;
                         top += 2;
                     }
                 }
@@ -230,14 +238,15 @@ fn slab_hit(
     true
 }
 
-fn face_hit(o: &Vector3<f64>, d: &Vector3<f64>, t: f64, axis: usize) -> Hit {
+/// `norm` is `d.norm()`, passed in so that a ray computes it once for all its tests.
+fn face_hit(o: &Vector3<f64>, d: &Vector3<f64>, norm: f64, t: f64, axis: usize) -> Hit {
     let p = o + d * t;
     let (u_m, v_m) = face_uv(&p, axis);
     Hit {
         t,
         u_m,
         v_m,
-        cos_incidence: d[axis].abs() / d.norm(),
+        cos_incidence: d[axis].abs() / norm,
         solid: 0,
     }
 }
@@ -262,88 +271,135 @@ impl Shape {
 
     /// Ray intersection (the `solid` index of the hit is left 0).
     pub fn intersect(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<Hit> {
+        self.intersect_with_norm(o, d, d.norm())
+    }
+
+    /// [`Shape::intersect`] with `d.norm()` computed by the caller, once per ray.
+    pub(crate) fn intersect_with_norm(
+        &self,
+        o: &Vector3<f64>,
+        d: &Vector3<f64>,
+        norm: f64,
+    ) -> Option<Hit> {
         match self {
             Shape::Room { min, max } => {
-                // From inside: the first face the ray leaves through.
-                let mut t_exit = f64::INFINITY;
-                let mut axis = 0;
-                for k in 0..3 {
-                    if d[k].abs() < 1e-12 {
-                        continue;
-                    }
-                    let bound = if d[k] > 0.0 { max[k] } else { min[k] };
-                    let t = (bound - o[k]) / d[k];
-                    if t < t_exit {
-                        t_exit = t;
-                        axis = k;
-                    }
-                }
-                if !(t_exit.is_finite() && t_exit > 0.0) {
-                    return None;
-                }
-                Some(face_hit(o, d, t_exit, axis))
+                room_exit(o, d, min, max).map(|(t, axis)| face_hit(o, d, norm, t, axis))
             }
             Shape::Block { min, max } => {
-                let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
-                for k in 0..3 {
-                    if d[k].abs() < 1e-12 {
-                        if o[k] < min[k] || o[k] > max[k] {
-                            return None;
-                        }
-                        continue;
-                    }
-                    let (mut t0, mut t1) = ((min[k] - o[k]) / d[k], (max[k] - o[k]) / d[k]);
-                    if t0 > t1 {
-                        std::mem::swap(&mut t0, &mut t1);
-                    }
-                    if t0 > t_near {
-                        t_near = t0;
-                        axis = k;
-                    }
-                    t_far = t_far.min(t1);
-                }
-                if t_near > t_far || t_near <= 1e-9 {
-                    return None;
-                }
-                Some(face_hit(o, d, t_near, axis))
+                block_entry(o, d, min, max).map(|(t, axis)| face_hit(o, d, norm, t, axis))
             }
-            Shape::Pole {
+            &Shape::Pole {
                 x,
                 y,
                 radius,
                 z_top,
-            } => {
-                let (ox, oy) = (o.x - x, o.y - y);
-                let a = d.x * d.x + d.y * d.y;
-                if a < 1e-12 {
-                    return None;
-                }
-                let b = 2.0 * (ox * d.x + oy * d.y);
-                let c = ox * ox + oy * oy - radius * radius;
-                let disc = b * b - 4.0 * a * c;
-                if disc < 0.0 {
-                    return None;
-                }
-                let t = (-b - disc.sqrt()) / (2.0 * a);
-                if t <= 1e-9 {
-                    return None;
-                }
-                let p = o + d * t;
-                if p.z < *z_top || p.z > 0.0 {
-                    return None;
-                }
-                let (nx, ny) = ((p.x - x) / radius, (p.y - y) / radius);
+            } => pole_entry(o, d, x, y, radius, z_top).map(|(t, p)| {
+                let (nx, ny) = pole_normal(&p, x, y, radius);
                 let angle = ny.atan2(nx);
-                Some(Hit {
+                Hit {
                     t,
                     u_m: angle * radius,
                     v_m: p.z,
-                    cos_incidence: (nx * d.x + ny * d.y).abs() / d.norm(),
+                    cos_incidence: (nx * d.x + ny * d.y).abs() / norm,
                     solid: 0,
-                })
-            }
+                }
+            }),
         }
     }
+}
+
+/// Where a ray from inside a room leaves it: the distance (in units of `d`) and the
+/// axis of the wall.
+fn room_exit(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    min: &Vector3<f64>,
+    max: &Vector3<f64>,
+) -> Option<(f64, usize)> {
+    let mut t_exit = f64::INFINITY;
+    let mut axis = 0;
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            continue;
+        }
+        let bound = if d[k] > 0.0 { max[k] } else { min[k] };
+        let t = (bound - o[k]) / d[k];
+        if t < t_exit {
+            t_exit = t;
+            axis = k;
+        }
+    }
+    if !(t_exit.is_finite() && t_exit > 0.0) {
+        return None;
+    }
+    Some((t_exit, axis))
+}
+
+/// Where a ray enters a box from outside: the distance and the axis of the face.
+fn block_entry(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    min: &Vector3<f64>,
+    max: &Vector3<f64>,
+) -> Option<(f64, usize)> {
+    let (mut t_near, mut t_far, mut axis) = (f64::NEG_INFINITY, f64::INFINITY, 0);
+    for k in 0..3 {
+        if d[k].abs() < 1e-12 {
+            if o[k] < min[k] || o[k] > max[k] {
+                return None;
+            }
+            continue;
+        }
+        let (mut t0, mut t1) = ((min[k] - o[k]) / d[k], (max[k] - o[k]) / d[k]);
+        if t0 > t1 {
+            std::mem::swap(&mut t0, &mut t1);
+        }
+        if t0 > t_near {
+            t_near = t0;
+            axis = k;
+        }
+        t_far = t_far.min(t1);
+    }
+    if t_near > t_far || t_near <= 1e-9 {
+        return None;
+    }
+    Some((t_near, axis))
+}
+
+/// Where a ray meets the side of a vertical cylinder: the distance and the point.
+fn pole_entry(
+    o: &Vector3<f64>,
+    d: &Vector3<f64>,
+    x: f64,
+    y: f64,
+    radius: f64,
+    z_top: f64,
+) -> Option<(f64, Vector3<f64>)> {
+    let (ox, oy) = (o.x - x, o.y - y);
+    let a = d.x * d.x + d.y * d.y;
+    if a < 1e-12 {
+        return None;
+    }
+    let b = 2.0 * (ox * d.x + oy * d.y);
+    let c = ox * ox + oy * oy - radius * radius;
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let t = (-b - disc.sqrt()) / (2.0 * a);
+    if t <= 1e-9 {
+        return None;
+    }
+    let p = o + d * t;
+    if p.z < z_top || p.z > 0.0 {
+        return None;
+    }
+    Some((t, p))
+}
+
+/// The outward unit normal (x, y) of a pole's side at `p`.
+fn pole_normal(p: &Vector3<f64>, x: f64, y: f64, radius: f64) -> (f64, f64) {
+    ((p.x - x) / radius, (p.y - y) / radius)
 }
 
 #[cfg(test)]
