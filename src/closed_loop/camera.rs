@@ -10,7 +10,7 @@ use faithd_core::camera::{CameraIntrinsics, Mounting};
 use faithd_core::event::Event;
 use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};
 use faithd_sim::world::scenes::with_poles;
-use faithd_sim::world::{DvsConfig, EventCamera, Scene, VehicleState};
+use faithd_sim::world::{DvsConfig, EventCamera, Scene, VehicleState, render_interval_us};
 
 /// Which camera renders a flight.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
@@ -33,10 +33,19 @@ pub enum FlightCamera {
 pub struct DvsView {
     scene: Scene,
     camera: EventCamera,
+    /// When the next render is due (the adaptive rate below).
+    next_render_us: Option<i64>,
 }
 
-/// Renders per second of the ray-traced camera: the rate `bench foe` renders at.
-const RENDER_EVERY_US: i64 = 1000;
+/// The ray-traced camera renders as often as the image moves (as ESIM does): the
+/// next render comes when the fastest pixel has moved this far, at most 1 kHz (the
+/// rate `bench foe` renders at throughout) and at least every 3 ms. Crossings
+/// between renders are interpolated linearly, right while an edge moves under a
+/// pixel; the events of an interval reach the daemon at its end, as a USB camera
+/// delivers them in packets a few milliseconds apart.
+const RENDER_MAX_DISPLACEMENT_PX: f64 = 0.5;
+const RENDER_MIN_INTERVAL_US: i64 = 1000;
+const RENDER_MAX_INTERVAL_US: i64 = 3000;
 
 impl FlightCamera {
     pub fn new(spec: &FlightSpec) -> Self {
@@ -68,7 +77,11 @@ impl FlightCamera {
                     dvs,
                     spec.seed,
                 );
-                FlightCamera::Dvs(Box::new(DvsView { scene, camera }))
+                FlightCamera::Dvs(Box::new(DvsView {
+                    scene,
+                    camera,
+                    next_render_us: None,
+                }))
             }
         }
     }
@@ -79,9 +92,19 @@ impl FlightCamera {
         match self {
             FlightCamera::Line(c) => c.advance(state, t_us, out),
             FlightCamera::Dvs(v) => {
-                if t_us % RENDER_EVERY_US == 0 {
-                    v.camera.advance(&v.scene, state, t_us, out);
+                if v.next_render_us.is_some_and(|due| t_us < due) {
+                    return;
                 }
+                v.camera.advance(&v.scene, state, t_us, out);
+                let speed_px_s = v.camera.max_image_speed_px_s(state);
+                let interval_us = render_interval_us(
+                    speed_px_s,
+                    RENDER_MAX_DISPLACEMENT_PX,
+                    RENDER_MIN_INTERVAL_US,
+                    RENDER_MAX_INTERVAL_US,
+                );
+                // On the physics' millisecond steps.
+                v.next_render_us = Some(t_us + interval_us / 1000 * 1000);
             }
         }
     }
