@@ -49,7 +49,12 @@ impl Drop for Load {
 
 #[test]
 fn the_same_seed_gives_the_same_json_at_any_parallelism_and_load() {
-    let args = ["sim", "--runs", "3", "--seed", "5", "--json"];
+    let dir = tempfile::tempdir().unwrap();
+    let plot = dir.path().join("outcome.png");
+    let plot_arg = plot.to_str().unwrap();
+    let args = [
+        "sim", "--runs", "3", "--seed", "5", "--json", "--plot", plot_arg,
+    ];
     let alone = faithd(&[&args[..], &["--threads", "1"]].concat());
     assert!(
         alone.status.success(),
@@ -84,6 +89,12 @@ fn the_same_seed_gives_the_same_json_at_any_parallelism_and_load() {
     ] {
         assert!(summary.get(key).is_some(), "{key} missing: {summary}");
     }
+    // The outcome picture: a PNG of the plot's size.
+    let png = std::fs::read(&plot).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let width = u32::from_be_bytes(png[16..20].try_into().unwrap());
+    let height = u32::from_be_bytes(png[20..24].try_into().unwrap());
+    assert_eq!((width, height), (900, 520));
     // Piped, the log is lines: one per flight and the timing, no bar.
     let log = String::from_utf8_lossy(&alone.stderr);
     assert!(!log.contains('\r') && !log.contains("\u{1b}["), "{log:?}");

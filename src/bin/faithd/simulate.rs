@@ -153,8 +153,11 @@ impl WorldArgs {
 /// `faithd sim`.
 #[derive(Args)]
 pub struct SimArgs {
+    /// Flights to fly; 60 % of them on a collision course.
     #[arg(long, default_value_t = 100)]
     runs: usize,
+    /// Seed of the flights' courses, scenes and FAITH's draws: the same seed gives
+    /// the same result, byte for byte.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Print one JSON object.
@@ -173,6 +176,14 @@ pub struct SimArgs {
     /// on it.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
     threads: Option<u32>,
+    /// Where to draw the outcome: each flight's closest approach against its
+    /// course offset, coloured by whether faithd rolled (closed loop only).
+    #[arg(
+        long,
+        default_value = "out/sim/outcome.png",
+        conflicts_with = "straight"
+    )]
+    plot: PathBuf,
     #[command(flatten)]
     world: WorldArgs,
 }
@@ -183,6 +194,7 @@ pub struct BenchFoeArgs {
     /// Number of simulated trajectories.
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u32).range(1..))]
     trajectories: u32,
+    /// Seed of the trajectories, scenes and FAITH's draws.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Print one JSON object instead of the table.
@@ -336,6 +348,15 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
         summary.simulated_s,
         started.elapsed().as_secs_f64()
     );
+    // The figures stand without the picture: a plot that cannot be written is
+    // reported, and the run still gives its result.
+    if let Some(dir) = args.plot.parent() {
+        let _ = std::fs::create_dir_all(dir);
+    }
+    match faithd::closed_loop::plot::plot_outcomes(&outcomes, &args.plot) {
+        Ok(()) => eprintln!("outcome plot: {}", args.plot.display()),
+        Err(e) => eprintln!("warning: {e}"),
+    }
     if args.json {
         println!(
             "{}",
@@ -670,6 +691,7 @@ pub struct BenchComputeArgs {
     /// Flights of the experiment's plan to measure (flown straight).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
     flights: u32,
+    /// Seed of the flights.
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Print one JSON object.
