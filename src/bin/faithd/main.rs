@@ -2,6 +2,7 @@
 //! feature, the experiments. `main` parses the arguments once into one struct per
 //! subcommand, runs it, and maps what went wrong to one of the exit statuses below.
 
+mod docs;
 mod flight;
 #[cfg(feature = "sim")]
 mod simulate;
@@ -10,7 +11,24 @@ use std::fmt::Display;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
+
+/// What this build can do, for `faithd --version`: a bug report or a bench log then
+/// says whether the simulation commands were there. The camera is always supported:
+/// libcaer is loaded when `faithd run` opens the camera, not linked.
+#[cfg(feature = "sim")]
+macro_rules! build_features {
+    () => {
+        "features: camera (DVS240 over libcaer, loaded at run time), sim (demo, sim, bench)"
+    };
+}
+#[cfg(not(feature = "sim"))]
+macro_rules! build_features {
+    () => {
+        "flight build; features: camera (DVS240 over libcaer, loaded at run time); without: sim"
+    };
+}
+const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (", build_features!(), ")");
 
 /// faithd's exit statuses (docs/design.md, Commands): scripts and the systemd unit
 /// read them.
@@ -62,7 +80,7 @@ impl Failure {
 #[derive(Parser)]
 #[command(
     name = "faithd",
-    version,
+    version = VERSION,
     about = "Event-camera obstacle avoidance for small drones"
 )]
 struct Cli {
@@ -100,6 +118,12 @@ enum Command {
     /// controller cannot be read. `faithd run` does the same check before its gate
     /// can open.
     CheckFc(flight::CheckFcArgs),
+    /// Print a completion script for a shell (bash, zsh, fish, elvish, powershell),
+    /// e.g. `faithd completions bash > /etc/bash_completion.d/faithd`.
+    Completions { shell: clap_complete::Shell },
+    /// Write a manual page per command into DIR (packaging; the .deb installs them).
+    #[command(hide = true)]
+    ManPages { dir: PathBuf },
 }
 
 #[cfg(feature = "sim")]
@@ -158,6 +182,20 @@ fn try_main(command: Command) -> Result<(), Failure> {
         Command::Replay(args) => flight::replay(&args),
         Command::CheckConfig { path } => flight::check_config(&path),
         Command::CheckFc(args) => flight::check_fc(&args),
+        Command::Completions { shell } => {
+            docs::print_completions(Cli::command(), shell);
+            Ok(())
+        }
+        Command::ManPages { dir } => {
+            let pages = docs::write_man_pages(Cli::command(), &dir).map_err(|e| {
+                Failure::failed(format!(
+                    "cannot write the manual pages to {}: {e}",
+                    dir.display()
+                ))
+            })?;
+            println!("{} manual pages in {}", pages.len(), dir.display());
+            Ok(())
+        }
     }
 }
 
