@@ -767,8 +767,9 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
         options.threads = t.max(1);
     }
     let started = std::time::Instant::now();
+    let progress = progress_bar(trajectories as u64, "trajectories");
     let report = faithd_sim::bench::foe::run(&options, &|done, t| {
-        eprintln!(
+        let line = format!(
             "[{done}/{trajectories}] {:<9} course {:>6.1} deg{}{}: {} events, {:.0} vectors/window, {:.1} s",
             t.scene.name(),
             t.course_deg,
@@ -778,7 +779,14 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
             t.mean_vectors,
             started.elapsed().as_secs_f64()
         );
+        if progress.is_hidden() {
+            eprintln!("{line}");
+        } else {
+            progress.println(line);
+        }
+        progress.inc(1);
     });
+    progress.finish_and_clear();
     if json {
         println!(
             "{}",
