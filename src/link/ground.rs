@@ -29,7 +29,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use mavlink::dialects::common::{MavMessage, MavSeverity, NAMED_VALUE_FLOAT_DATA, STATUSTEXT_DATA};
-use mavlink::{AsyncMavlinkReader, MAVLinkMessageRaw, MavHeader, MavlinkVersion};
+use mavlink::{AsyncMavlinkReader, MAVLinkMessageRaw, MavHeader, MavlinkVersion, Message as _};
 use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
@@ -41,6 +41,8 @@ use faithd_core::invalid::{Invalid, check};
 use faithd_core::pipeline::PipelineTelemetry;
 use faithd_core::safety::gate::{Blocker, FailsafeSource, GateState, PipelineProblem};
 
+/// `[ground]`: where the ground station is and what may cross between it and the
+/// autopilot.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GroundConfig {
@@ -321,7 +323,7 @@ pub struct Counters {
     /// Autopilot frames not forwarded: the queue was full (the ground link slower
     /// than the autopilot, or down), or they had waited through a reconnect.
     pub frames_dropped: AtomicU64,
-    /// STATUSTEXT not sent, for the same reasons.
+    /// STATUSTEXT not sent: the queue was full.
     pub notices_dropped: AtomicU64,
     /// Ground frames for the autopilot dropped: its port's queue was full.
     pub uplink_dropped: AtomicU64,
@@ -433,13 +435,18 @@ pub async fn run(
             "frames from the ground station are forwarded to the autopilot (ground.forward_to_autopilot)"
         );
     }
+    let mut reopened = false;
     loop {
         match endpoint.open().await {
             Ok(transport) => {
                 tracing::info!(%endpoint, "ground station link up");
                 backoff = min;
-                // What waited through the reconnect is stale: drop it, count it.
-                drain(&mut io);
+                // The autopilot's frames that waited through a reconnect are stale:
+                // dropped, counted. Notices are kept: what happened while the link
+                // was down is still news.
+                if std::mem::replace(&mut reopened, true) {
+                    drain_frames(&mut io);
+                }
                 let why = serve(
                     &config,
                     &mavlink,
@@ -461,21 +468,14 @@ pub async fn run(
     }
 }
 
-fn drain(io: &mut GroundIo) {
+fn drain_frames(io: &mut GroundIo) {
     let mut frames = 0;
     while io.frames.try_recv().is_ok() {
         frames += 1;
     }
-    let mut notices = 0;
-    while io.notices.try_recv().is_ok() {
-        notices += 1;
-    }
     io.counters
         .frames_dropped
         .fetch_add(frames, Ordering::Relaxed);
-    io.counters
-        .notices_dropped
-        .fetch_add(notices, Ordering::Relaxed);
 }
 
 /// The values plotted on the ground, as NAMED_VALUE_FLOAT names (10 characters at
@@ -623,8 +623,6 @@ impl Own<'_> {
     }
 }
 
-use mavlink::Message as _;
-
 /// A frame from the ground: to the autopilot's port if the configuration lets it
 /// go there, else counted and (now and then) named in the journal.
 fn uplink(config: &GroundConfig, mavlink: &MavlinkConfig, raw: &MAVLinkMessageRaw, io: &GroundIo) {
@@ -648,7 +646,10 @@ fn uplink(config: &GroundConfig, mavlink: &MavlinkConfig, raw: &MAVLinkMessageRa
         (Some(why), _) => {
             let n = io.counters.uplink_refused.fetch_add(1, Ordering::Relaxed) + 1;
             if n.is_power_of_two() {
+                let name =
+                    MavMessage::default_message_from_id(id).map_or("?", |m| m.message_name());
                 tracing::info!(
+                    message = name,
                     message_id = id,
                     system_id = raw.system_id(),
                     component_id = raw.component_id(),
