@@ -4,11 +4,12 @@
 //! to the MSP model of iNav on a pseudo-terminal.
 //!
 //! The ground station must hear faithd's HEARTBEAT as an onboard controller at 1 Hz,
-//! a STATUSTEXT for the gate opening, for the roll and for the switch going to
-//! MANUAL (in that order), the five NAMED_VALUE_FLOAT values at 4 Hz, and the autopilot's own
-//! telemetry from the autopilot's ids at the autopilot's rate. It sends
+//! a STATUSTEXT for the gate opening, for the roll and for the switch going to MANUAL
+//! (in that order), the five NAMED_VALUE_FLOAT values at 4 Hz, and the autopilot's
+//! own telemetry from the autopilot's ids at the autopilot's rate. It sends
 //! RC_CHANNELS_OVERRIDE and COMMAND_LONG (disarm) to the vehicle five times a second;
-//! the autopilot must see nothing but faithd's HEARTBEAT.
+//! the autopilot must see nothing but faithd's HEARTBEAT. With
+//! `forward_to_autopilot = true` the commands reach it, the stick input still not.
 //!
 //! Needs python3 with pymavlink (`.ci/run` installs it). Without it the test is
 //! skipped with a message, unless `CI` is set: there it fails.
@@ -108,32 +109,43 @@ fn finish<T: serde::de::DeserializeOwned>(child: Child, what: &str) -> T {
     })
 }
 
-#[test]
-fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
-    if pymavlink_missing() {
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "python3 with pymavlink is needed (CI installs it: `python3 -m pip install pymavlink`)"
-        );
-        eprintln!(
-            "SKIPPED ground_station: python3 with pymavlink not found (`python3 -m pip install pymavlink`); CI runs it"
-        );
-        return;
+/// Whether the pymavlink peers can run; skips (outside CI) with a message if not.
+fn peers_available(test: &str) -> bool {
+    if !pymavlink_missing() {
+        return true;
     }
-    let (autopilot_port, ground_port) = (free_udp_port(), free_udp_port());
-    // The autopilot plays 7 s, the pilot's switch in AUTO until 4.5 s, then MANUAL;
-    // the ground station listens for 6 s.
-    let autopilot = python(
-        "pymavlink_autopilot.py",
-        &[
-            autopilot_port.to_string(),
-            "7".into(),
-            "--manual-after=4.5".into(),
-        ],
+    assert!(
+        std::env::var_os("CI").is_none(),
+        "python3 with pymavlink is needed (CI installs it: `python3 -m pip install pymavlink`)"
     );
+    eprintln!(
+        "SKIPPED {test}: python3 with pymavlink not found (`python3 -m pip install pymavlink`); CI runs it"
+    );
+    false
+}
+
+/// What one flight showed: the ground station's and the autopilot's records, the
+/// journal, and whether iNav (the MSP model) used a roll.
+struct Flight {
+    ground: GroundSaw,
+    autopilot: AutopilotSaw,
+    log: String,
+    rolled: bool,
+}
+
+/// faithd with `[ground]` (plus `ground_toml`) between pymavlink as the autopilot
+/// (`autopilot_args` after its port) and pymavlink as the ground station, listening
+/// for `ground_s` seconds. One approach to the pole, 1.5 s in: the gate is open by
+/// then (the MSP stream warms up for 0.8 s), so the roll comes when the pipeline calls
+/// for it.
+fn fly(autopilot_args: &[&str], ground_s: &str, ground_toml: &str) -> Flight {
+    let (autopilot_port, ground_port) = (free_udp_port(), free_udp_port());
+    let mut args = vec![autopilot_port.to_string()];
+    args.extend(autopilot_args.iter().map(|a| a.to_string()));
+    let autopilot = python("pymavlink_autopilot.py", &args);
     let ground = python(
         "pymavlink_ground.py",
-        &[ground_port.to_string(), "6".into()],
+        &[ground_port.to_string(), ground_s.into()],
     );
     // Both peers listening (their ports taken) before faithd starts, so the ground
     // station hears faithd's first words.
@@ -146,13 +158,11 @@ fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
         "the pymavlink peers did not start listening"
     );
     let msp = MspMock::start(Arc::new(Controls::default()));
-    // One approach to the pole, 1.5 s in: the gate is open by then (the MSP stream
-    // warms up for 0.8 s), so the roll comes when the pipeline calls for it.
     let mut daemon = Daemon::start_config(
         &format!(
             "[mavlink]\nendpoint = \"udpout:127.0.0.1:{autopilot_port}\"\n\
              [source]\nkind = \"sim\"\nfirst_approach_us = 1500000\nrepeat_us = 60000000\n\
-             {}[ground]\nenabled = true\nendpoint = \"udpout:127.0.0.1:{ground_port}\"\n",
+             {}[ground]\nenabled = true\nendpoint = \"udpout:127.0.0.1:{ground_port}\"\n{ground_toml}",
             msp.command_toml()
         ),
         &[],
@@ -161,6 +171,27 @@ fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
     let autopilot: AutopilotSaw = finish(autopilot, "autopilot");
     let log = daemon.log();
     assert!(daemon.stop().success(), "{log}");
+    Flight {
+        ground,
+        autopilot,
+        log,
+        rolled: msp.first_roll().is_some(),
+    }
+}
+
+#[test]
+fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
+    if !peers_available("the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither") {
+        return;
+    }
+    // The autopilot plays 7 s, the pilot's switch in AUTO until 4.5 s, then MANUAL;
+    // the ground station listens for 6 s.
+    let Flight {
+        ground,
+        autopilot,
+        log,
+        rolled,
+    } = fly(&["7", "--manual-after=4.5"], "6", "");
     println!("{}", ground.capture);
 
     // faithd announces itself as an onboard controller of the vehicle, once a second.
@@ -211,10 +242,7 @@ fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
         ground.statustext[roll].text
     );
     assert_eq!(ground.statustext[manual].severity, "NOTICE");
-    assert!(
-        msp.first_roll().is_some(),
-        "the roll reached iNav (model) too"
-    );
+    assert!(rolled, "the roll reached iNav (model) too");
 
     // The values to plot: every name at 4 Hz, the pipeline's figures in them.
     for name in VALUE_NAMES {
@@ -268,8 +296,10 @@ fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
         autopilot.received
     );
     assert!(
-        log.contains("frame from the ground station not forwarded to the autopilot"),
-        "{log}"
+        log.contains("frame from the ground station not forwarded to the autopilot")
+            && (log.contains("message_name=\"RC_CHANNELS_OVERRIDE\"")
+                || log.contains("message_name=\"COMMAND_LONG\"")),
+        "the journal names what it kept from the autopilot:\n{log}"
     );
     println!(
         "rates: faithd HEARTBEAT {:.2} Hz, NAMED_VALUE_FLOAT {}, ATTITUDE {:.1} Hz, RC_CHANNELS {:.1} Hz; ground sent {:?}; autopilot received {:?}",
@@ -282,6 +312,41 @@ fn the_ground_station_sees_faithd_and_the_autopilot_and_reaches_neither() {
         ground.seen["ATTITUDE 1/1"].rate_hz,
         ground.seen["RC_CHANNELS 1/1"].rate_hz,
         ground.sent,
+        autopilot.received
+    );
+}
+
+#[test]
+fn forwarding_to_the_autopilot_lets_commands_through_but_never_stick_input() {
+    if !peers_available("forwarding_to_the_autopilot_lets_commands_through_but_never_stick_input") {
+        return;
+    }
+    let Flight {
+        ground, autopilot, ..
+    } = fly(&["4.5"], "3.5", "forward_to_autopilot = true\n");
+    let from_ground = |kind: &str| {
+        autopilot
+            .received
+            .get(&format!("{kind} 255/190"))
+            .copied()
+            .unwrap_or(0)
+    };
+    assert!(ground.sent["COMMAND_LONG"] >= 10, "{:?}", ground.sent);
+    // UDP on loopback loses nothing here: every command the ground sent arrives, with
+    // the ground station's own ids (forwarded as received).
+    assert_eq!(
+        from_ground("COMMAND_LONG"),
+        ground.sent["COMMAND_LONG"],
+        "{:?}",
+        autopilot.received
+    );
+    assert_eq!(from_ground("HEARTBEAT"), ground.sent["HEARTBEAT"]);
+    assert!(
+        !autopilot
+            .received
+            .keys()
+            .any(|k| k.starts_with("RC_CHANNELS_OVERRIDE")),
+        "stick input reached the autopilot: {:?}",
         autopilot.received
     );
 }

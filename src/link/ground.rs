@@ -649,7 +649,7 @@ fn uplink(config: &GroundConfig, mavlink: &MavlinkConfig, raw: &MAVLinkMessageRa
                 let name =
                     MavMessage::default_message_from_id(id).map_or("?", |m| m.message_name());
                 tracing::info!(
-                    message = name,
+                    message_name = name,
                     message_id = id,
                     system_id = raw.system_id(),
                     component_id = raw.component_id(),
