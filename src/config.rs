@@ -14,6 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::command::CommandConfig;
 use crate::cycle::DaemonConfig;
 use crate::link::MavlinkConfig;
+use crate::link::ground::GroundConfig;
 use crate::record::RecordConfig;
 use crate::source::SourceConfig;
 use faithd_core::invalid::check;
@@ -33,6 +34,7 @@ pub struct FaithdConfig {
     pub daemon: DaemonConfig,
     pub source: SourceConfig,
     pub record: RecordConfig,
+    pub ground: GroundConfig,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -110,10 +112,19 @@ impl FaithdConfig {
         self.daemon.validate()?;
         self.source.validate()?;
         self.record.validate()?;
+        self.ground.validate()?;
         check(
             self.command.msp_port().address != self.mavlink.endpoint,
             "command.sink.endpoint",
             || "must be a different port from mavlink.endpoint".into(),
+        )?;
+        let ground = self.ground.endpoint.as_ref();
+        check(
+            ground.is_none_or(|g| {
+                *g != self.mavlink.endpoint && *g != self.command.msp_port().address
+            }),
+            "ground.endpoint",
+            || "must be a port of its own, not mavlink.endpoint or command.sink.endpoint".into(),
         )
     }
 }
@@ -337,6 +348,29 @@ mod tests {
                 "[command.sink]\nkind = \"msp\"\nendpoint = \"serial:/dev/ttyAMA0\"\n",
                 "command.sink.endpoint",
             ),
+            ("[ground]\nenabled = true\n", "ground.endpoint"),
+            ("[ground]\nendpoint = \"nowhere\"\n", "ground.endpoint"),
+            (
+                "[ground]\nendpoint = \"serial:/dev/ttyAMA0\"\n",
+                "ground.endpoint",
+            ),
+            (
+                "[ground]\nendpoint = \"serial:/dev/ttyAMA1\"\n",
+                "ground.endpoint",
+            ),
+            ("[ground]\nbaud = 0\n", "ground.baud"),
+            (
+                "[ground]\ntelemetry_period_us = 1000\n",
+                "ground.telemetry_period_us",
+            ),
+            (
+                "[ground]\nheartbeat_period_us = 0\n",
+                "ground.heartbeat_period_us",
+            ),
+            (
+                "[ground]\nforward_rc_override = true\n",
+                "ground.forward_rc_override",
+            ),
         ] {
             match FaithdConfig::parse(text) {
                 Err(ParseError::Invalid(inv)) => assert_eq!(inv.key, key, "{text}"),
@@ -393,6 +427,21 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(!refused.contains("now a table"), "{refused}");
+    }
+
+    #[test]
+    fn a_ground_link_parses_when_asked_for() {
+        let config = FaithdConfig::parse(
+            "[ground]\nenabled = true\nendpoint = \"udpout:192.168.4.2:14550\"\nforward_to_autopilot = true\n",
+        )
+        .unwrap();
+        let port = config.ground.port().expect("a ground port");
+        assert_eq!(port.address.to_string(), "udpout:192.168.4.2:14550");
+        assert!(config.ground.forward_to_autopilot && !config.ground.forward_rc_override);
+        // Written but off: no port.
+        let off =
+            FaithdConfig::parse("[ground]\nendpoint = \"udpout:192.168.4.2:14550\"\n").unwrap();
+        assert!(off.ground.port().is_none());
     }
 
     #[test]

@@ -30,7 +30,9 @@ use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::{Action, Decision};
 use faithd_core::event::Event;
 use faithd_core::invalid::{Invalid, check};
-use faithd_core::pipeline::{Pipeline, PipelineConfig, StageClock, WindowReport};
+use faithd_core::pipeline::{
+    Pipeline, PipelineConfig, PipelineTelemetry, StageClock, WindowReport,
+};
 use faithd_core::safety::gate::{PipelineProblem, PipelineStatus};
 use faithd_formats::window_log::WindowLine;
 use faithd_formats::window_log::WindowLogLine;
@@ -126,6 +128,8 @@ pub struct CycleOutputs {
     /// The newest roll decision: a newer one replaces one the commander has not
     /// read yet (it only acts on fresh decisions), so none is ever refused.
     pub decisions: watch::Sender<Option<RollDecision>>,
+    /// What the pipeline is seeing and costing, for the ground station's plots.
+    pub telemetry: watch::Sender<PipelineTelemetry>,
     pub recorder: Option<crate::record::Recorder>,
 }
 
@@ -204,6 +208,7 @@ pub struct Cycle {
     foe_iterations: u32,
     max_fits: usize,
     overrun_log: Throttle,
+    telemetry: PipelineTelemetry,
 }
 
 impl Cycle {
@@ -232,6 +237,7 @@ impl Cycle {
             foe_iterations: pipeline_config.faith.iterations,
             max_fits: pipeline_config.flow.max_fits_per_window,
             overrun_log: Throttle::new(LOG_EVERY_US),
+            telemetry: PipelineTelemetry::default(),
             pipeline_config,
             config,
         }
@@ -321,9 +327,13 @@ impl Cycle {
             decision,
             last_event_us,
             window_log,
+            work,
             ..
         } = outcome;
         outputs.status.send_replace(status);
+        self.telemetry.events += work.events as u64;
+        self.telemetry.foe_px = decision.foe_px;
+        self.telemetry.obstacle_ttc_s = decision.obstacle.map(|o| o.mean_ttc_s);
         let key = (
             std::mem::discriminant(&decision.action),
             std::mem::discriminant(&decision.reason),
@@ -348,6 +358,8 @@ impl Cycle {
     /// Accounts a cycle that took `cycle_us`: over budget, the next ones shed load;
     /// a calm stretch restores it.
     pub fn account(&mut self, cycle_us: i64, now_us: i64) {
+        self.telemetry.windows += 1;
+        self.telemetry.cycle_us_total += cycle_us;
         let budget_us = self.config.budget_us;
         if let Some(load) = self.shedder.observe(cycle_us, budget_us) {
             self.pipeline.set_max_vectors(load.max_vectors);
@@ -375,6 +387,11 @@ impl Cycle {
                 )
             });
         }
+    }
+
+    /// Hands the running totals on, once a window is published and accounted.
+    pub fn report_telemetry(&self, outputs: &CycleOutputs) {
+        outputs.telemetry.send_replace(self.telemetry);
     }
 
     /// Cycles over budget since start.
@@ -434,6 +451,7 @@ pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonC
         cycle.publish(outcome, &io.outputs);
         let now_us = clock.now_us();
         cycle.account(now_us - started_us, now_us);
+        cycle.report_telemetry(&io.outputs);
         next_us = cycle.next_period(next_us, clock.now_us());
     }
 }

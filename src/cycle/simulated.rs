@@ -57,6 +57,7 @@ pub async fn run_simulated(
         // The board's time, not the timer's (tokio's fire on whole milliseconds).
         let now_us = clock.now_us();
         cycle.account(charged_us, now_us);
+        cycle.report_telemetry(&io.outputs);
         if let Some(tx) = &report {
             let _ = tx.send(CycleReport {
                 started_us,

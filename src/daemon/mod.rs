@@ -28,12 +28,14 @@ use crate::command::stream::RollReport;
 use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
 use crate::link::endpoint::Endpoint;
-use crate::link::{self, LinkOutputs};
+use crate::link::ground::{self, GroundFeed, Notice};
+use crate::link::{self, LinkOutputs, ToAutopilot};
 use crate::source::{self, sim};
 use crate::{cycle, record, supervise};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::Action;
 use faithd_core::event::Event;
+use faithd_core::pipeline::PipelineTelemetry;
 use faithd_core::safety::confirm::{RollConfirm, Verdict};
 use faithd_core::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
 use faithd_core::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
@@ -242,6 +244,24 @@ pub async fn serve(
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
     // faithd sends only its own HEARTBEAT on the MAVLink link; nothing else queues.
     let (_mav_out_tx, mav_out_rx) = mpsc::channel(1);
+    let (telemetry_tx, telemetry_rx) = watch::channel(PipelineTelemetry::default());
+    // The ground station link, when configured: a bystander fed through queues that
+    // never make the link or the commander wait.
+    let (ground_feed, from_ground, ground_task) = match config.ground.port() {
+        Some(port) => {
+            let (feed, io, from_ground) = ground::queues(&config.ground, telemetry_rx);
+            tracing::info!(ground = %port, "ground station link configured");
+            let task = tokio::spawn(ground::run(
+                config.ground.clone(),
+                config.mavlink.clone(),
+                port,
+                clock,
+                io,
+            ));
+            (feed, from_ground, Some(task))
+        }
+        None => (GroundFeed::default(), None, None),
+    };
     let link_task = tokio::spawn(link::run(
         config.mavlink.clone(),
         endpoint,
@@ -250,8 +270,12 @@ pub async fn serve(
             vehicle: vehicle_tx,
             attitude: attitude.clone(),
             recorder: recorder.clone(),
+            ground: ground_feed.clone(),
         },
-        mav_out_rx,
+        ToAutopilot {
+            own: mav_out_rx,
+            from_ground,
+        },
         supervisor.register("autopilot link"),
     ));
 
@@ -266,6 +290,7 @@ pub async fn serve(
         outputs: cycle::CycleOutputs {
             status: status_tx,
             decisions: decision_tx,
+            telemetry: telemetry_tx,
             recorder: recorder.clone(),
         },
         stop: stop_pipeline.clone(),
@@ -326,6 +351,7 @@ pub async fn serve(
             decision_rx,
             observer,
             heartbeat: commander_beat,
+            ground: ground_feed,
         },
         &stream,
     );
@@ -359,7 +385,10 @@ pub async fn serve(
     // Every task and thread is ended and joined before `serve` returns: the
     // background tasks are cancelled, the pipeline is told to stop, and the camera
     // thread ends when the pipeline's end of its channel is gone.
-    for task in [link_task, log_task, notifier_task] {
+    for task in [link_task, log_task, notifier_task]
+        .into_iter()
+        .chain(ground_task)
+    {
         task.abort();
         let _ = task.await;
     }
@@ -476,6 +505,8 @@ struct CommanderInputs {
     decision_rx: watch::Receiver<Option<cycle::RollDecision>>,
     observer: Option<mpsc::UnboundedSender<Observation>>,
     heartbeat: supervise::Heartbeat,
+    /// Gate changes and rolls, for the ground station (a no-op without one).
+    ground: GroundFeed,
 }
 
 async fn commander_task(
@@ -490,6 +521,7 @@ async fn commander_task(
         mut decision_rx,
         observer,
         heartbeat,
+        ground,
     } = inputs;
     let mut commander = Commander::new(config.manoeuvre);
     let mut stream_rx = stream.status.clone();
@@ -575,6 +607,10 @@ async fn commander_task(
                 GateState::Open => tracing::info!("safety gate open: faithd may command roll"),
                 GateState::Closed(b) => tracing::info!("safety gate closed: {b}"),
             }
+            ground.notify(Notice::Gate {
+                gate,
+                was_open: last_gate.map(|g| g.is_open()),
+            });
             last_gate = Some(gate);
         }
         // A roll decision is acted on only while it is fresh.
@@ -595,6 +631,12 @@ async fn commander_task(
                             decision,
                         });
                     }
+                    ground.notify(Notice::Roll {
+                        direction,
+                        ttc_s: fresh
+                            .and_then(|(_, _, _, d)| d.obstacle)
+                            .map(|o| o.mean_ttc_s),
+                    });
                     request = None;
                     first_call_event_us = None;
                     check

@@ -1,10 +1,12 @@
 //! The MAVLink link to the autopilot: one task that owns the transport, keeps it
 //! open (reconnecting with backoff when the port vanishes), turns what arrives into
 //! vehicle state and attitude samples, sends faithd's own HEARTBEAT, and writes what
-//! the commander hands it. Nothing here waits for the pipeline.
+//! the commander hands it. Nothing here waits for the pipeline, nor for the ground
+//! station link ([`ground`]), which it hands every frame it reads.
 
 pub mod clock_sync;
 pub mod endpoint;
+pub mod ground;
 pub mod telemetry;
 
 use std::sync::{Arc, Mutex};
@@ -13,7 +15,7 @@ use std::time::Duration;
 use mavlink::dialects::common::{
     HEARTBEAT_DATA, MavAutopilot, MavMessage, MavModeFlag, MavState, MavType,
 };
-use mavlink::{AsyncMavlinkReader, MavHeader, MavlinkVersion};
+use mavlink::{AsyncMavlinkReader, MavHeader, MavlinkVersion, Message as _};
 use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
@@ -24,6 +26,7 @@ use endpoint::{Address, BoxedTransport, Endpoint};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::vehicle::VehicleState;
+use ground::{GroundFeed, RawFrame};
 use telemetry::Update;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -132,6 +135,18 @@ pub struct LinkOutputs {
     pub attitude: Arc<Mutex<AttitudeLog>>,
     /// Every frame in and out goes to the flight recording.
     pub recorder: Option<crate::record::Recorder>,
+    /// Every frame read goes to the ground station too, when there is one.
+    pub ground: GroundFeed,
+}
+
+/// What the link writes to the autopilot besides its HEARTBEAT.
+pub struct ToAutopilot {
+    /// Messages of faithd's own, sent with its ids.
+    pub own: mpsc::Receiver<MavMessage>,
+    /// Frames from the ground station, written as received; only with
+    /// `ground.forward_to_autopilot`. Served after what the autopilot sends, so a
+    /// busy ground station cannot starve faithd's reading of the autopilot.
+    pub from_ground: Option<mpsc::Receiver<RawFrame>>,
 }
 
 /// Records a frame in or out, stamped with the daemon-clock time `t_us` it was
@@ -161,7 +176,7 @@ pub async fn run(
     endpoint: Endpoint,
     clock: DaemonClock,
     outputs: LinkOutputs,
-    mut outgoing: mpsc::Receiver<MavMessage>,
+    mut outgoing: ToAutopilot,
     heartbeat: Heartbeat,
 ) {
     let min = Duration::from_micros(config.reconnect_min_us.max(1) as u64);
@@ -194,7 +209,10 @@ pub async fn run(
             }
         }
         // Commands queued while the link was down are stale: drop them.
-        while outgoing.try_recv().is_ok() {}
+        while outgoing.own.try_recv().is_ok() {}
+        if let Some(rx) = &mut outgoing.from_ground {
+            while rx.try_recv().is_ok() {}
+        }
         heartbeat.sleep(backoff).await;
         backoff = (backoff * 2).min(max);
     }
@@ -206,7 +224,7 @@ async fn serve(
     transport: BoxedTransport,
     clock: &DaemonClock,
     outputs: &LinkOutputs,
-    outgoing: &mut mpsc::Receiver<MavMessage>,
+    outgoing: &mut ToAutopilot,
     sequence: &mut u8,
     alive: &Heartbeat,
 ) -> String {
@@ -233,13 +251,23 @@ async fn serve(
                     return format!("write failed: {e}");
                 }
             }
-            Some(msg) = outgoing.recv() => {
+            Some(msg) = outgoing.own.recv() => {
                 if let Err(e) = send(config, clock, &mut write_half, sequence, &msg, outputs).await {
                     return format!("write failed: {e}");
                 }
             }
-            got = reader.read_any_message::<MavMessage>() => match got {
-                Ok((header, msg)) => {
+            got = reader.read_any_raw_message::<MavMessage>() => match got {
+                Ok(raw) => {
+                    outputs.ground.forward(&raw);
+                    let header = ground::header_of(&raw);
+                    let msg = match MavMessage::parse(raw.version(), raw.message_id(), raw.payload()) {
+                        Ok(msg) => msg,
+                        Err(e) => {
+                            skipped += 1;
+                            tracing::debug!(skipped, "undecodable MAVLink frame skipped: {e}");
+                            continue;
+                        }
+                    };
                     if !from_autopilot(config, &header) {
                         foreign += 1;
                         if foreign.is_power_of_two() {
@@ -268,7 +296,23 @@ async fn serve(
             _ = tokio::time::sleep_until(deadline) => {
                 return format!("nothing from the autopilot for {} ms", silence.as_millis());
             }
+            Some(frame) = recv_from_ground(&mut outgoing.from_ground) => {
+                if let Some(msg) = frame.decode() {
+                    record(outputs, clock, clock.now_us(), frame.header(), &msg);
+                }
+                if let Err(e) = endpoint::write_bounded(&mut write_half, frame.bytes()).await {
+                    return format!("write failed: {e}");
+                }
+            }
         }
+    }
+}
+
+/// The next frame from the ground station, or never without forwarding.
+async fn recv_from_ground(from_ground: &mut Option<mpsc::Receiver<RawFrame>>) -> Option<RawFrame> {
+    match from_ground {
+        Some(rx) => rx.recv().await,
+        None => std::future::pending().await,
     }
 }
 
@@ -326,8 +370,9 @@ async fn send(
     endpoint::write_bounded(writer, &frame).await
 }
 
-/// faithd announces itself as an onboard controller, not an autopilot.
-fn own_heartbeat() -> MavMessage {
+/// faithd announces itself as an onboard controller, not an autopilot (to the
+/// autopilot and to the ground station alike).
+pub(crate) fn own_heartbeat() -> MavMessage {
     MavMessage::HEARTBEAT(HEARTBEAT_DATA {
         custom_mode: 0,
         mavtype: MavType::MAV_TYPE_ONBOARD_CONTROLLER,

@@ -6,10 +6,12 @@ on its MAVLink port at the rates of the committed set-up (every 40 ms ATTITUDE a
 RC_CHANNELS with the pilot's switch at SWITCH_US; HEARTBEAT armed once a second;
 SYS_STATUS with the RC receiver healthy). With --impostor, a second component of
 the same system (154, a gimbal) also sends RC_CHANNELS with the switch in AUTO and
-an armed HEARTBEAT on the same link, as a misbehaving peripheral would. Records
-faithd's HEARTBEATs and any RC_CHANNELS_OVERRIDE, then prints one JSON object.
+an armed HEARTBEAT on the same link, as a misbehaving peripheral would. With
+--manual-after=S the pilot's switch goes to MANUAL (1000 us) S seconds in. Records
+faithd's HEARTBEATs, any RC_CHANNELS_OVERRIDE, and every message it received by type
+and sender ("TYPE SYS/COMP": count), then prints one JSON object.
 
-    pymavlink_autopilot.py PORT SECONDS [SWITCH_US] [--impostor]
+    pymavlink_autopilot.py PORT SECONDS [SWITCH_US] [--impostor] [--manual-after=S]
 """
 
 import json
@@ -38,6 +40,8 @@ def rc_channels(mav, boot_ms, switch_us):
 def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     impostor = "--impostor" in sys.argv
+    manual_after = next((float(a.split("=", 1)[1]) for a in sys.argv
+                         if a.startswith("--manual-after=")), None)
     port, seconds = int(args[0]), float(args[1])
     switch_us = int(args[2]) if len(args) > 2 else 1900
     conn = mavutil.mavlink_connection(
@@ -50,10 +54,15 @@ def main():
     tick = 0
     overrides = 0
     companion_heartbeats = 0
+    received = {}
     while time.monotonic() - start < seconds:
         msg = conn.recv_match(blocking=True, timeout=0.005)
         now = time.monotonic()
+        if manual_after is not None and now - start >= manual_after:
+            switch_us = 1000
         if msg is not None:
+            key = f"{msg.get_type()} {msg.get_srcSystem()}/{msg.get_srcComponent()}"
+            received[key] = received.get(key, 0) + 1
             kind = msg.get_type()
             if kind == "RC_CHANNELS_OVERRIDE":
                 overrides += 1
@@ -76,7 +85,7 @@ def main():
             tick += 1
             next_send += 0.04
     print(json.dumps({"companion_heartbeats": companion_heartbeats,
-                      "overrides": overrides}))
+                      "overrides": overrides, "received": received}))
 
 
 if __name__ == "__main__":

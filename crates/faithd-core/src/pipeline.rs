@@ -145,6 +145,25 @@ impl StageTimings {
     }
 }
 
+/// What the pipeline has done so far, kept by its driver (the daemon's pipeline
+/// thread, or task in a simulated flight) for the ground station's plots: running
+/// totals, so a reader that looks now and then gets rates and means over the time
+/// between two looks whatever it missed, and the newest window's estimates.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PipelineTelemetry {
+    /// Windows run, and the events they took.
+    pub windows: u64,
+    pub events: u64,
+    /// The windows' cycle times added up, microseconds: measured in flight, charged
+    /// in a simulated flight (the time the target board would have needed).
+    pub cycle_us_total: i64,
+    /// The newest window's FOE, when it has one in the view.
+    pub foe_px: Option<(f64, f64)>,
+    /// The mean TTC of the newest window's obstacle: the most urgent cluster in the
+    /// way, or else the nearest cluster.
+    pub obstacle_ttc_s: Option<f64>,
+}
+
 /// Everything one window produced, borrowed from the pipeline's buffers.
 #[derive(Debug)]
 pub struct WindowReport<'a> {
