@@ -5,6 +5,7 @@
 mod flight;
 #[cfg(feature = "sim")]
 mod simulate;
+mod video;
 
 use std::fmt::Display;
 use std::path::PathBuf;
