@@ -14,6 +14,7 @@
 pub mod frame;
 pub mod canvas;
 pub mod view;
+pub mod legend;
 pub mod panel;
 pub mod time_bar;
 pub mod words;

@@ -1,9 +1,8 @@
 //! The text beside the picture, top to bottom in the order a person asks: when is
 //! this, what did faithd decide and why, where is it heading, may it act (the
-//! gate), is iNav rolling; then a legend of the picture's marks.
+//! gate), is iNav rolling.
 
 use plotters::coord::Shift;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::TextStyle;
 
@@ -146,114 +145,5 @@ impl<'a, DB: DrawingBackend> Panel<'a, DB> {
             17,
             &roll_colour,
         )
-    }
-
-    /// The picture's marks, at the bottom of a panel `height` tall; the true FOE's
-    /// only when the source knows it.
-    pub fn legend(&mut self, height: i32, truth: bool) -> DrawResult {
-        let rows: [(&str, Swatch, &str, Swatch); 3] = [
-            (
-                "ON events",
-                Swatch::Square(canvas::EVENT_ON),
-                "OFF events",
-                Swatch::Square(canvas::EVENT_OFF),
-            ),
-            (
-                "FOE (faithd)",
-                Swatch::Cross(canvas::FOE_ESTIMATED),
-                if truth { "true FOE" } else { "" },
-                if truth {
-                    Swatch::Ring(canvas::FOE_TRUE)
-                } else {
-                    Swatch::None
-                },
-            ),
-            (
-                "obstacle: rolls",
-                Swatch::Box(canvas::ROLL),
-                "obstacle: holds",
-                Swatch::Box(canvas::OBSTACLE_HELD),
-            ),
-        ];
-        let mut y = height - MARGIN - 22 * (rows.len() as i32 + 2);
-        let style = Self::style(14, &canvas::DIM_TEXT);
-        for (left, left_mark, right, right_mark) in rows {
-            for (x, label, mark) in [(MARGIN, left, left_mark), (MARGIN + 200, right, right_mark)] {
-                mark.draw(self.area, (x + 8, y + 8))?;
-                self.area
-                    .draw(&Text::new(label, (x + 24, y), style.clone()))
-                    .map_err(drawn)?;
-            }
-            y += 22;
-        }
-        Swatch::Dashed(canvas::OBSTACLE_HELD).draw(self.area, (MARGIN + 8, y + 8))?;
-        self.area
-            .draw(&Text::new(
-                "dashed: the FOE in here puts the obstacle in the way",
-                (MARGIN + 24, y),
-                style.clone(),
-            ))
-            .map_err(drawn)?;
-        y += 22;
-        Swatch::Square(canvas::CLUSTERS[0]).draw(self.area, (MARGIN + 8, y + 8))?;
-        Swatch::Square(canvas::UNCLUSTERED).draw(self.area, (MARGIN + 20, y + 8))?;
-        self.area
-            .draw(&Text::new(
-                "flow (50 ms) by cluster, grey in none; arrows",
-                (MARGIN + 36, y),
-                style,
-            ))
-            .map_err(drawn)?;
-        Ok(())
-    }
-}
-
-/// A legend's mark, the same shape as in the picture.
-#[derive(Clone, Copy)]
-enum Swatch {
-    Square(RGBColor),
-    Cross(RGBColor),
-    Ring(RGBColor),
-    Box(RGBColor),
-    Dashed(RGBColor),
-    None,
-}
-
-impl Swatch {
-    fn draw<DB: DrawingBackend>(
-        self,
-        area: &DrawingArea<DB, Shift>,
-        (x, y): (i32, i32),
-    ) -> DrawResult {
-        match self {
-            Swatch::Square(c) => area.draw(&Rectangle::new(
-                [(x - 5, y - 5), (x + 5, y + 5)],
-                c.filled(),
-            )),
-            Swatch::Cross(c) => {
-                let style = c.stroke_width(3);
-                area.draw(&PathElement::new(vec![(x - 8, y), (x + 8, y)], style))
-                    .and_then(|_| area.draw(&PathElement::new(vec![(x, y - 8), (x, y + 8)], style)))
-            }
-            Swatch::Ring(c) => area.draw(&Circle::new((x, y), 7, c.stroke_width(3))),
-            Swatch::Box(c) => area.draw(&Rectangle::new(
-                [(x - 8, y - 6), (x + 8, y + 6)],
-                c.stroke_width(2),
-            )),
-            Swatch::Dashed(c) => area.draw(&DashedPathElement::new(
-                vec![
-                    (x - 8, y - 6),
-                    (x + 8, y - 6),
-                    (x + 8, y + 6),
-                    (x - 8, y + 6),
-                    (x - 8, y - 6),
-                ],
-                3,
-                3,
-                c.stroke_width(1),
-            )),
-            Swatch::None => Ok(()),
-        }
-        .map_err(drawn)
     }
 }

@@ -1,10 +1,11 @@
-//! A whole frame: the camera's picture on the left, the panel of words on the
-//! right, the time bar across the bottom.
+//! A whole frame: the camera's picture on the left with the key to its marks
+//! under it, the panel of words on the right, the time bar across the bottom.
 
 use plotters::prelude::*;
 
 use super::canvas::{self, Canvas};
 use super::frame::Frame;
+use super::legend;
 use super::panel::{self, Panel};
 use super::time_bar::{self, TimeBar, TimeSpan};
 use super::view::{self, View};
@@ -26,7 +27,8 @@ impl Renderer {
         let (view_w, view_h) = view.size();
         // Even sides: the video encoders' 4:2:0 colour needs them.
         let width = (view_w + panel::WIDTH).next_multiple_of(2);
-        let height = (view_h.max(MIN_PANEL_HEIGHT) + time_bar::HEIGHT).next_multiple_of(2);
+        let height = ((view_h + legend::HEIGHT).max(MIN_PANEL_HEIGHT) + time_bar::HEIGHT)
+            .next_multiple_of(2);
         Ok(Self {
             bar: TimeBar::new(width, span)?,
             canvas: Canvas::new(width, height),
@@ -76,7 +78,8 @@ impl Renderer {
             let words = root.clone().shrink((view_w, 0), (width - view_w, bar_top));
             let mut panel = Panel::new(&words);
             panel.draw(frame, &self.title, &self.span)?;
-            panel.legend(bar_top as i32, frame.truth.is_some())?;
+            let key = root.clone().shrink((0, view_h), (view_w, legend::HEIGHT));
+            legend::draw(&key, frame.truth.is_some())?;
             let bar = root.clone().shrink((0, bar_top), (width, time_bar::HEIGHT));
             self.bar.draw_marks(&bar, frame)?;
             root.present().map_err(drawn)?;
@@ -86,4 +89,4 @@ impl Renderer {
 }
 
 /// The panel needs this much height whatever the camera's.
-const MIN_PANEL_HEIGHT: u32 = 540;
+const MIN_PANEL_HEIGHT: u32 = 560;

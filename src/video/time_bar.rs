@@ -48,6 +48,8 @@ pub struct TimeBar {
 
 impl TimeBar {
     pub fn new(width: u32, span: TimeSpan) -> Result<Self, super::VideoError> {
+        // Its labels are drawn now, with the bundled font.
+        faithd_sim::bench::plot::use_bundled_font();
         let mut strip = Canvas::new(width, HEIGHT);
         strip.fill(
             (0, 0),

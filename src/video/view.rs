@@ -8,8 +8,9 @@ use plotters::prelude::*;
 
 use super::canvas::{self, Canvas};
 use super::frame::Frame;
+use super::words;
 use super::{DrawResult, drawn};
-use faithd_core::decide::{Action, DecisionConfig, Reason, foe_region};
+use faithd_core::decide::{Action, DecisionConfig, Reason, foe_region, not_in_the_way};
 use faithd_core::event::Polarity;
 use faithd_core::foe::FoeEstimate;
 use faithd_core::pipeline::PipelineConfig;
@@ -214,7 +215,15 @@ fn draw_obstacle<DB: DrawingBackend>(
     let label = if ahead {
         format!("obstacle {:.2} s", o.mean_ttc_s)
     } else {
-        format!("nearest {:.2} s, not ahead", o.mean_ttc_s)
+        let why = frame.decision.foe_px.and_then(|foe_px| {
+            let width_px = f64::from(view.width_px);
+            not_in_the_way(&o, &frame.clusters, &view.decision, width_px, foe_px)
+        });
+        format!(
+            "nearest {:.2} s: {}",
+            o.mean_ttc_s,
+            why.map_or("not in the way", words::not_in_the_way)
+        )
     };
     let (view_w, view_h) = view.size();
     // Above the box, else below it, else inside its top; never off the picture.

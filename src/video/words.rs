@@ -2,7 +2,7 @@
 //! each short enough to read in a second beside a moving picture. The log line
 //! (`Decision`'s `Display`) has every number; these have the ones that explain.
 
-use faithd_core::decide::{Action, Decision, Reason, RollDirection};
+use faithd_core::decide::{Action, Decision, NotInTheWay, Reason, RollDirection};
 use faithd_core::foe::FoeEstimate;
 use faithd_core::safety::gate::GateState;
 
@@ -38,7 +38,9 @@ pub fn reason(reason: &Reason) -> String {
             format!("heading uncertain: the FOE fits {support} of {vectors} vectors")
         }
         Reason::NoClusters => "no obstacle: no cluster in the flow".into(),
-        Reason::ObstacleNotAhead => "no obstacle in the way: the FOE is in no cluster's box".into(),
+        Reason::ObstacleNotAhead => {
+            "nothing in the way: no obstacle-like cluster around the FOE".into()
+        }
         Reason::ObstacleFar { ttc_s, threshold_s } => {
             format!("obstacle ahead, {ttc_s:.2} s away: not yet under {threshold_s:.1} s")
         }
@@ -110,6 +112,17 @@ pub fn inav_roll(roll: Option<&InavRoll>) -> String {
             direction: None,
         }) => format!("centre (stick {value_us} us)"),
         None => "not in this recording".into(),
+    }
+}
+
+/// Why the nearest cluster is not the obstacle, as its label says it.
+pub fn not_in_the_way(why: NotInTheWay) -> &'static str {
+    match why {
+        NotInTheWay::TooWide => "too wide for an obstacle",
+        NotInTheWay::TooFlat => "too flat for an obstacle",
+        NotInTheWay::Passing => "already passing",
+        NotInTheWay::FoeOutside => "FOE outside its reach",
+        NotInTheWay::ExpandsBeside => "expands beside: passing by",
     }
 }
 

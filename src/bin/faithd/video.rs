@@ -165,7 +165,7 @@ mod workstation {
                 .map_err(|e| Failure::failed(format!("--video: {e}")))?;
             let wall_s = self.started.elapsed().as_secs_f64();
             eprintln!(
-                "video: {} ({} frames of {}x{} at {:.1} frames a second, {} windows; drawn at {:.0} frames a second)",
+                "video: {} ({} frames of {}x{} at {:.1} frames a second, {} windows; written at {:.0} frames a second)",
                 summary.path.display(),
                 summary.frames,
                 summary.width,
