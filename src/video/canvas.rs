@@ -12,8 +12,8 @@ pub const TEXT: RGBColor = RGBColor(236, 236, 236);
 pub const DIM_TEXT: RGBColor = RGBColor(150, 150, 162);
 
 /// Events by polarity, muted: they are the backdrop the flow is computed from.
-pub const EVENT_ON: RGBColor = RGBColor(150, 60, 60);
-pub const EVENT_OFF: RGBColor = RGBColor(55, 85, 165);
+pub const EVENT_ON: RGBColor = RGBColor(120, 48, 48);
+pub const EVENT_OFF: RGBColor = RGBColor(45, 68, 135);
 
 /// Flow vectors in no cluster (noise, or no TTC).
 pub const UNCLUSTERED: RGBColor = RGBColor(125, 125, 125);

@@ -82,6 +82,14 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
     let config = load_optional(args.config.as_deref())?.unwrap_or_default();
     // The command line and the config checks both keep this positive.
     let window_us = args.window_us.unwrap_or(config.daemon.period_us);
+    let mut film = ReplayFilm::start(
+        &args.video,
+        ReplaySource::Events {
+            events: &args.events,
+            pipeline: &config.pipeline,
+            window_us,
+        },
+    )?;
     let attitude = match (&args.mavlink, &args.imu) {
         (Some(path), _) => AttitudeInput::Tlog {
             path,
@@ -93,14 +101,6 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
             AttitudeInput::None
         }
     };
-    let mut film = ReplayFilm::start(
-        &args.video,
-        ReplaySource::Events {
-            events: &args.events,
-            pipeline: &config.pipeline,
-            window_us,
-        },
-    )?;
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let result = faithd::replay::replay(
@@ -120,9 +120,6 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
 fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
     let pipeline = load_optional(args.config.as_deref())?.map(|c| c.pipeline);
     let mavlink = args.mavlink.as_deref();
-    if mavlink.is_none() {
-        eprintln!("note: no --mavlink: replaying without the recorded attitude");
-    }
     let mut film = ReplayFilm::start(
         &args.video,
         ReplaySource::WindowLog {
@@ -131,6 +128,9 @@ fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
             pipeline: pipeline.as_ref(),
         },
     )?;
+    if mavlink.is_none() {
+        eprintln!("note: no --mavlink: replaying without the recorded attitude");
+    }
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let result = faithd::replay::replay_window_log(

@@ -369,18 +369,6 @@ fn write_flight_video(
 fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     use faithd::closed_loop::experiment;
     let (runs, seed) = (args.runs, args.seed);
-    let mut specs = experiment::plan(runs, seed);
-    for (i, spec) in specs.iter_mut().enumerate() {
-        args.world.apply(i, spec);
-    }
-    let threads = args.threads.map_or_else(
-        || std::thread::available_parallelism().map_or(1, |n| n.get()),
-        |t| t as usize,
-    );
-    eprintln!(
-        "faithd sim: {runs} closed-loop flights, seed {seed}, {}; {threads} at a time",
-        args.world.describe()
-    );
     let filmed = args
         .video
         .video
@@ -393,6 +381,18 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
         )));
     }
     check_video_output(&args.video)?;
+    let mut specs = experiment::plan(runs, seed);
+    for (i, spec) in specs.iter_mut().enumerate() {
+        args.world.apply(i, spec);
+    }
+    let threads = args.threads.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        |t| t as usize,
+    );
+    eprintln!(
+        "faithd sim: {runs} closed-loop flights, seed {seed}, {}; {threads} at a time",
+        args.world.describe()
+    );
     let options = args.world.options();
     let started = std::time::Instant::now();
     let progress = progress_bar(runs as u64, "flights");
@@ -416,7 +416,7 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     if let Some(i) = filmed {
         let o = &mut outcomes[i];
         let title = format!(
-            "faithd sim, seed {seed}: flight {} of {runs}, {} {}, course {:+.2} m",
+            "faithd sim, seed {seed}: flight {} of {runs} ({}, {}, {:+.2} m off the pole)",
             i + 1,
             if o.collision_course {
                 "collision course"

@@ -13,7 +13,8 @@ use crate::Failure;
 pub struct VideoArgs {
     /// Write the flight as a video, one frame per decision window: FILE.mp4 (through
     /// ffmpeg, which must be installed), FILE.gif (animated GIF), or a directory or
-    /// NAME.png (numbered PNG frames).
+    /// NAME.png (numbered PNG frames). Workstation builds only: the flight build
+    /// refuses it.
     #[arg(long, value_name = "FILE")]
     pub video: Option<PathBuf>,
     /// How fast the video plays, as a fraction of real time: 0.25 shows a second of
