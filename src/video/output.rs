@@ -296,6 +296,7 @@ impl Palette {
             canvas::EVENT_ON,
             canvas::EVENT_OFF,
             canvas::UNCLUSTERED,
+            canvas::ARROW,
             canvas::FOE_ESTIMATED,
             canvas::FOE_TRUE,
             canvas::ROLL,
@@ -317,9 +318,10 @@ impl Palette {
                 }
             }
         }
-        let mut grey = 0u8;
-        while colours.len() < 256 {
-            grey = grey.wrapping_add(7);
+        // The rest: greys between the cube's, for text edges on the dark panels.
+        let greys = 256usize.saturating_sub(colours.len());
+        for k in 0..greys {
+            let grey = (12 + 232 * k / greys.max(1)) as u8;
             colours.push((grey, grey, grey));
         }
         colours.truncate(256);
