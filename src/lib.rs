@@ -16,3 +16,5 @@ pub mod replay; // a recorded flight through the same pipeline, off line
 pub mod logging; // journal-friendly logs that never block the cycle
 #[cfg(feature = "sim")]
 pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav
+#[cfg(feature = "sim")]
+pub mod video; // a flight as a video: every window's picture, decision, gate and roll

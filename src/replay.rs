@@ -15,7 +15,7 @@ use crate::link::telemetry::{self, Update};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::attitude::AttitudeSample;
 use faithd_core::event::Event;
-use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
+use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig, WindowReport};
 use faithd_core::safety::vehicle::VehicleState;
 use faithd_formats::events::{SourceError, open_events};
 use faithd_formats::tlog::{TlogError, TlogReader};
@@ -53,6 +53,18 @@ pub enum ReplayError {
         "{path}: event {index} has time {t_us} us, beyond +-2^53 us: not a clock faithd can window"
     )]
     EventTime { path: String, index: u64, t_us: i64 },
+    /// The [`Watch`] stopped the replay (the video could not be written).
+    #[error("{0}")]
+    Watch(String),
+}
+
+/// Hears every replayed window: the events it took and everything the pipeline
+/// made of them (a flight's video is drawn from it). An error stops the replay.
+pub type Watch<'a> = &'a mut dyn FnMut(&[Event], &WindowReport<'_>) -> Result<(), String>;
+
+/// A watch that hears nothing.
+pub fn unwatched(_: &[Event], _: &WindowReport<'_>) -> Result<(), String> {
+    Ok(())
 }
 
 /// Refuses events whose times no recording can hold (they would overflow the window
@@ -160,7 +172,8 @@ pub fn imu_samples(
     Ok(out)
 }
 
-/// Replays `events_path`, writing one line per `window_us` window to `out`.
+/// Replays `events_path`, writing one line per `window_us` window to `out` and
+/// telling `watch` of each.
 pub fn replay(
     events_path: &Path,
     attitude: AttitudeInput<'_>,
@@ -168,6 +181,7 @@ pub fn replay(
     window_us: i64,
     json: bool,
     out: &mut dyn Write,
+    watch: Watch<'_>,
 ) -> Result<usize, ReplayError> {
     let samples = match attitude {
         AttitudeInput::None => Vec::new(),
@@ -214,6 +228,7 @@ pub fn replay(
             }
             let take = faithd_core::window::events_until(&pending, end_us);
             let report = pipeline.process_window(&pending[..take], &samples, end_us, &mut NoClock);
+            watch(&pending[..take], &report).map_err(ReplayError::Watch)?;
             let line = WindowLine::from_report(end_us, take, &report);
             pending.drain(..take);
             windows += 1;
@@ -244,8 +259,9 @@ pub struct LogReplay {
 
 /// Replays a daemon recording window by window as its window log says the daemon ran
 /// it (see [`faithd_formats::window_log`]), printing each window as [`replay`] does and
-/// comparing it with the recorded one. `config` overrides the logged pipeline
-/// configuration (to try other settings on a recorded flight).
+/// comparing it with the recorded one, and telling `watch` of each. `config`
+/// overrides the logged pipeline configuration (to try other settings on a recorded
+/// flight).
 pub fn replay_window_log(
     events_path: &Path,
     tlog_path: Option<&Path>,
@@ -253,6 +269,7 @@ pub fn replay_window_log(
     config: Option<PipelineConfig>,
     json: bool,
     out: &mut dyn Write,
+    watch: Watch<'_>,
 ) -> Result<LogReplay, ReplayError> {
     let log_err = |line: usize, what: String| ReplayError::WindowLog {
         path: log_path.display().to_string(),
@@ -368,6 +385,7 @@ pub fn replay_window_log(
             window.t_us,
             &mut NoClock,
         );
+        watch(&pending[..window.events], &report).map_err(ReplayError::Watch)?;
         let replayed = WindowLine::from_report(window.t_us, window.events, &report);
         pending.drain(..window.events);
         result.windows += 1;
@@ -380,6 +398,67 @@ pub fn replay_window_log(
         print_line(&replayed, json, out)?;
     }
     Ok(result)
+}
+
+/// The first and last event times of a recording, microseconds (`None`: no
+/// events): a replay's windows run between them. Reads the file once more.
+pub fn events_span(path: &Path) -> Result<Option<(i64, i64)>, ReplayError> {
+    let events_err = events_error(path);
+    let mut reader = open_events(path).map_err(events_err)?;
+    let mut batch = Vec::new();
+    let mut span: Option<(i64, i64)> = None;
+    let mut seen = 0;
+    while reader.next_batch(&mut batch).map_err(events_err)? {
+        check_times(path, &batch, &mut seen)?;
+        if let (Some(first), Some(last)) = (batch.first(), batch.last()) {
+            span = Some((span.map_or(first.t_us, |s| s.0), last.t_us));
+        }
+    }
+    Ok(span)
+}
+
+/// What a window log holds, at a glance: its settings, its first and last window
+/// times (microseconds) and how many windows lie between (`None`: no windows).
+/// Lines that do not parse are left to the replay to report.
+pub struct WindowLogOutline {
+    /// The pipeline settings the flight ran with.
+    pub pipeline: PipelineConfig,
+    pub windows: Option<(i64, i64, usize)>,
+}
+
+/// Reads a window log once through for its [`WindowLogOutline`].
+pub fn window_log_outline(path: &Path) -> Result<WindowLogOutline, ReplayError> {
+    let log_err = |line: usize, what: String| ReplayError::WindowLog {
+        path: path.display().to_string(),
+        line,
+        what,
+    };
+    let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    let mut lines = std::io::BufReader::new(file).lines();
+    let header_text = lines
+        .next()
+        .and_then(Result::ok)
+        .ok_or_else(|| log_err(1, "empty file: no header line".into()))?;
+    let header: WindowLogHeader =
+        serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
+    let mut windows: Option<(i64, i64, usize)> = None;
+    for line in lines {
+        let Ok(line) = line else { break };
+        let Ok(window) = serde_json::from_str::<RecordedWindow>(&line) else {
+            continue;
+        };
+        windows = Some(match windows {
+            None => (window.t_us, window.t_us, 1),
+            Some((first, _, n)) => (first, window.t_us, n + 1),
+        });
+    }
+    Ok(WindowLogOutline {
+        pipeline: header.pipeline_as_run().unwrap_or(header.pipeline),
+        windows,
+    })
 }
 
 fn print_line(line: &WindowLine, json: bool, out: &mut dyn Write) -> Result<(), ReplayError> {

@@ -122,6 +122,7 @@ fn a_slow_board_overruns_and_sheds_load() {
         &spec,
         &FlyOptions {
             compute: ComputeCharge::modelled(10.0),
+            ..FlyOptions::default()
         },
     )
     .unwrap();
@@ -148,6 +149,7 @@ fn measured_compute_flies_too() {
         },
         &FlyOptions {
             compute: ComputeCharge::Measured { cpu_scale: 1.0 },
+            ..FlyOptions::default()
         },
     )
     .unwrap();

@@ -1,5 +1,6 @@
 //! The crate boundaries hold: the core links nothing that does I/O, and the flight
-//! build (no `sim` feature) links neither the simulator nor plotters. Read from
+//! build (no `sim` feature) links neither the simulator nor plotters nor the video
+//! encoders. Read from
 //! `cargo tree`, i.e. from what cargo would actually build.
 
 use std::process::Command;
@@ -59,7 +60,7 @@ fn the_core_links_no_runtime_protocol_format_or_plotting_crate() {
 fn the_flight_build_links_no_simulator() {
     let flight = dependencies("faithd", &["--no-default-features"]);
     assert!(flight.iter().any(|d| d == "faithd-core"), "{flight:?}");
-    for banned in ["faithd-sim", "plotters"] {
+    for banned in ["faithd-sim", "plotters", "gif", "png"] {
         assert!(
             !flight.iter().any(|d| d == banned),
             "the flight build links {banned}"

@@ -12,6 +12,12 @@ use faithd_sim::world::line_camera::{ArenaSpec, LineCamera};
 use faithd_sim::world::scenes::with_poles;
 use faithd_sim::world::{DvsConfig, EventCamera, Scene, VehicleState, render_interval_us};
 
+/// Every simulated flight's camera: a DVS240 looking straight ahead. The true FOE
+/// of the flight's video is projected through the same.
+pub fn optics() -> (CameraIntrinsics, Mounting) {
+    (CameraIntrinsics::dvs240(), Mounting::forward())
+}
+
 /// Which camera renders a flight.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -53,12 +59,8 @@ impl FlightCamera {
             CameraKind::Line => {
                 let mut arena = arena(spec);
                 arena.contrast = spec.contrast;
-                let mut camera = LineCamera::new(
-                    CameraIntrinsics::dvs240(),
-                    Mounting::forward(),
-                    arena,
-                    spec.seed,
-                );
+                let (intrinsics, mounting) = optics();
+                let mut camera = LineCamera::new(intrinsics, mounting, arena, spec.seed);
                 camera.noise_rate_hz = spec.noise_rate_hz;
                 FlightCamera::Line(Box::new(camera))
             }
@@ -71,12 +73,8 @@ impl FlightCamera {
                     noise_rate_hz: spec.noise_rate_hz,
                     ..DvsConfig::default()
                 };
-                let camera = EventCamera::new(
-                    CameraIntrinsics::dvs240(),
-                    Mounting::forward(),
-                    dvs,
-                    spec.seed,
-                );
+                let (intrinsics, mounting) = optics();
+                let camera = EventCamera::new(intrinsics, mounting, dvs, spec.seed);
                 FlightCamera::Dvs(Box::new(DvsView {
                     scene,
                     camera,

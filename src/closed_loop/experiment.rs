@@ -55,11 +55,13 @@ pub fn plan(runs: usize, seed: u64) -> Vec<FlightSpec> {
 
 /// Flies every spec, `threads` at a time, each flight on its own simulated-time
 /// runtime; `done` hears each outcome as it lands (in any order). Outcomes come
-/// back in spec order and do not depend on `threads`.
+/// back in spec order and do not depend on `threads`. Flight `filmed` (an index
+/// into `specs`) keeps its frames for a video.
 pub fn fly_all(
     specs: &[FlightSpec],
     options: &FlyOptions,
     threads: usize,
+    filmed: Option<usize>,
     done: impl Fn(usize, &FlightOutcome) + Sync,
 ) -> Result<Vec<FlightOutcome>, String> {
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -74,7 +76,11 @@ pub fn fly_all(
                     if i >= specs.len() || failure.lock().expect("failure lock").is_some() {
                         return;
                     }
-                    match fly(&specs[i], options) {
+                    let options = FlyOptions {
+                        film: filmed == Some(i),
+                        ..*options
+                    };
+                    match fly(&specs[i], &options) {
                         Ok(o) => {
                             done(i, &o);
                             *slots[i].lock().expect("slot lock") = Some(o);

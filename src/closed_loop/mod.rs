@@ -14,6 +14,7 @@ pub mod autopilot;
 pub mod calibrate;
 pub mod camera;
 pub mod experiment;
+pub mod film;
 pub mod inav_mavlink;
 pub mod inav_msp;
 pub mod physics;
@@ -135,16 +136,21 @@ pub struct CycleFigures {
     pub dropped_batches: u64,
 }
 
-/// How to fly: what a cycle's compute costs in simulated time.
+/// How to fly: what a cycle's compute costs in simulated time, and whether to keep
+/// the flight's frames for a video.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FlyOptions {
     pub compute: ComputeCharge,
+    /// Keep every window as a video frame ([`FlightOutcome::film`]).
+    #[serde(skip)]
+    pub film: bool,
 }
 
 impl Default for FlyOptions {
     fn default() -> Self {
         Self {
             compute: ComputeCharge::modelled(1.0),
+            film: false,
         }
     }
 }
@@ -176,6 +182,9 @@ pub struct FlightOutcome {
     /// The decision that started the roll, with its evidence.
     pub decision: Option<faithd_core::decide::Decision>,
     pub path: Vec<PathPoint>,
+    /// The flight's frames, when [`FlyOptions::film`] asked for them.
+    #[serde(skip)]
+    pub film: Option<film::FilmedFlight>,
 }
 
 /// Flies one flight end to end in simulated time. Fails when the daemon ended on a
@@ -206,8 +215,11 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
     let endpoint = config.mavlink.port();
     let msp_endpoint = config.command.msp_port();
     let budget_us = config.daemon.budget_us;
+    let (manoeuvre, period_us, pipeline_config) =
+        (config.manoeuvre, config.daemon.period_us, config.pipeline);
     let (obs_tx, mut obs_rx) = mpsc::unbounded_channel();
     let (cycles_tx, mut cycles_rx) = mpsc::unbounded_channel();
+    let (frames_tx, mut frames_rx) = mpsc::unbounded_channel();
     let world_spec = spec.clone();
     let world_shared = shared.clone();
     let hooks = Hooks {
@@ -218,6 +230,7 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
             }),
             compute: options.compute,
             cycles: Some(cycles_tx),
+            frames: options.film.then_some(frames_tx),
         },
         observer: Some(obs_tx),
     };
@@ -240,18 +253,23 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
         .expect("log lock")
         .take()
         .unwrap_or_default();
-    let mut decision = None;
-    let started = obs_rx.try_recv().ok().map(|o| match o {
-        Observation::ManoeuvreStarted {
-            last_event_us,
-            first_call_event_us,
-            started_us,
-            decision: d,
-        } => {
-            decision = Some(d);
-            (last_event_us, first_call_event_us, started_us)
+    let mut started = None;
+    let mut gates = Vec::new();
+    while let Ok(observation) = obs_rx.try_recv() {
+        match observation {
+            Observation::ManoeuvreStarted {
+                last_event_us,
+                first_call_event_us,
+                started_us,
+                decision,
+            } => {
+                started.get_or_insert((last_event_us, first_call_event_us, started_us, decision));
+            }
+            Observation::Gate { t_us, gate } => gates.push((t_us, gate)),
         }
-    });
+    }
+    let decision = started.map(|(_, _, _, d)| d);
+    let started = started.map(|(last, first, at, _)| (last, first, at));
     let first_rx = shared
         .first_roll_rx_us
         .load(std::sync::atomic::Ordering::Relaxed);
@@ -269,6 +287,24 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
     while let Ok(r) = cycles_rx.try_recv() {
         reports.push(r);
     }
+    let film = options.film.then(|| {
+        let mut windows = Vec::new();
+        while let Ok(frame) = frames_rx.try_recv() {
+            windows.push(frame);
+        }
+        film::assemble(
+            windows,
+            &film::WorldRecord {
+                start_us,
+                path: &log.path,
+                gates: &gates,
+                spec,
+                manoeuvre: &manoeuvre,
+                period_us,
+                pipeline: &pipeline_config,
+            },
+        )
+    });
     let mut pipeline = cycle_figures(&reports, budget_us);
     pipeline.dropped_batches = shared
         .dropped_batches
@@ -287,6 +323,7 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
         events: log.events,
         decision,
         path: log.path,
+        film,
     })
 }
 

@@ -46,6 +46,9 @@ pub struct PathPoint {
     pub y_m: f64,
     pub bank_deg: f64,
     pub roll_us: u16,
+    /// Where the vehicle is heading in the camera's picture, pixels (`None`: behind
+    /// it): what the pipeline's FOE estimates.
+    pub true_foe_px: Option<(f64, f64)>,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -115,6 +118,7 @@ pub async fn run(
     let mut quad = initial_quad(&spec);
     let arena = arena(&spec);
     let mut camera = FlightCamera::new(&spec);
+    let (intrinsics, mounting) = super::camera::optics();
     let mut log = FlightLog {
         min_clearance_m: f64::INFINITY,
         ..Default::default()
@@ -151,6 +155,7 @@ pub async fn run(
                 y_m: quad.position_m.y,
                 bank_deg: quad.bank_rad.to_degrees(),
                 roll_us,
+                true_foe_px: state.true_foe_px(&intrinsics, &mounting),
             });
         }
         if !batch.is_empty() {

@@ -15,7 +15,7 @@ pub mod shed;
 mod simulated;
 
 #[cfg(feature = "sim")]
-pub use simulated::{CycleReport, run_simulated};
+pub use simulated::{CycleReport, SimulatedTaps, run_simulated};
 
 use std::sync::mpsc::{Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
@@ -209,7 +209,14 @@ pub struct Cycle {
     max_fits: usize,
     overrun_log: Throttle,
     telemetry: PipelineTelemetry,
+    /// Hears every window (a simulated flight's video).
+    #[cfg(feature = "sim")]
+    window_tap: Option<WindowTap>,
 }
+
+/// Hears each window's events and everything the pipeline made of them.
+#[cfg(feature = "sim")]
+pub type WindowTap = Box<dyn FnMut(&[Event], &WindowReport<'_>) + Send>;
 
 impl Cycle {
     pub fn new(pipeline_config: PipelineConfig, config: DaemonConfig, now_us: i64) -> Self {
@@ -238,9 +245,17 @@ impl Cycle {
             max_fits: pipeline_config.flow.max_fits_per_window,
             overrun_log: Throttle::new(LOG_EVERY_US),
             telemetry: PipelineTelemetry::default(),
+            #[cfg(feature = "sim")]
+            window_tap: None,
             pipeline_config,
             config,
         }
+    }
+
+    /// Hands every window from now on to `tap` as well.
+    #[cfg(feature = "sim")]
+    pub fn tap_windows(&mut self, tap: WindowTap) {
+        self.window_tap = Some(tap);
     }
 
     /// Takes a batch of events that arrived at `now_us` (recording it).
@@ -281,6 +296,10 @@ impl Cycle {
             window_end_us,
             stage_clock,
         );
+        #[cfg(feature = "sim")]
+        if let Some(tap) = &mut self.window_tap {
+            tap(&self.pending[..take], &report);
+        }
         let decision = report.decision;
         let work = Work::of(&report, take, self.foe_iterations);
         let timings = report.timings;

@@ -8,26 +8,42 @@
 use std::sync::mpsc::TryRecvError;
 use std::time::Duration;
 
+use tokio::sync::mpsc::UnboundedSender;
+
 use super::compute::ComputeCharge;
 use super::{Cycle, CycleIo, DaemonConfig};
 use crate::clock::{DaemonClock, WallStageClock};
 use faithd_core::pipeline::PipelineConfig;
 
-/// Runs until the simulated camera hangs up or `io.stop` is set. `report` hears
-/// every cycle's charged time, for the simulation's figures.
+/// What a simulated flight's harness hears from the pipeline.
+#[derive(Default)]
+pub struct SimulatedTaps {
+    /// Every cycle's charged time, for the simulation's figures.
+    pub cycles: Option<UnboundedSender<CycleReport>>,
+    /// Every window as a video frame.
+    pub frames: Option<UnboundedSender<crate::video::Frame>>,
+}
+
+/// Runs until the simulated camera hangs up or `io.stop` is set, telling `taps`.
 pub async fn run_simulated(
     pipeline_config: PipelineConfig,
     config: DaemonConfig,
     clock: DaemonClock,
     io: CycleIo,
     charge: ComputeCharge,
-    report: Option<tokio::sync::mpsc::UnboundedSender<CycleReport>>,
+    taps: SimulatedTaps,
 ) {
     debug_assert!(
         clock.is_simulated(),
         "a simulated pipeline needs the simulated clock"
     );
     let mut cycle = Cycle::new(pipeline_config, config, clock.now_us());
+    if let Some(frames) = taps.frames {
+        cycle.tap_windows(Box::new(move |events, report| {
+            let _ = frames.send(crate::video::Frame::of_window(events, report));
+        }));
+    }
+    let report = taps.cycles;
     let mut stage_clock = WallStageClock::new();
     let recording = io.outputs.recorder.is_some();
     let mut next_us = clock.now_us() + config.period_us;

@@ -179,6 +179,8 @@ pub enum Execution {
         source: SimulatedSourceFn,
         compute: crate::cycle::compute::ComputeCharge,
         cycles: Option<mpsc::UnboundedSender<crate::cycle::CycleReport>>,
+        /// Every window as a video frame (`--video`), when asked.
+        frames: Option<mpsc::UnboundedSender<crate::video::Frame>>,
     },
 }
 
@@ -191,8 +193,10 @@ pub struct Hooks {
     pub observer: Option<mpsc::UnboundedSender<Observation>>,
 }
 
-/// Something a harness may want to measure.
+/// Something a harness may want to measure. A few per flight, so a large variant
+/// costs nothing.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)]
 pub enum Observation {
     /// A roll began; `last_event_us` is the newest event of the deciding window,
     /// `first_call_event_us` that of the first window of the unbroken run of roll
@@ -203,6 +207,9 @@ pub enum Observation {
         started_us: i64,
         decision: faithd_core::decide::Decision,
     },
+    /// The safety gate changed (open, closed, or closed for another reason or
+    /// count): a flight's video shows it.
+    Gate { t_us: i64, gate: GateState },
 }
 
 /// The daemon proper; returns when `shutdown` completes or a fault is reported
@@ -312,6 +319,7 @@ pub async fn serve(
             source,
             compute,
             cycles,
+            frames,
         } => {
             let world = tokio::spawn(source(clock, batch_tx));
             let pipeline = tokio::spawn(cycle::run_simulated(
@@ -320,7 +328,7 @@ pub async fn serve(
                 clock,
                 cycle_io,
                 compute,
-                cycles,
+                cycle::SimulatedTaps { cycles, frames },
             ));
             Workers::Tasks([pipeline, world])
         }
@@ -536,6 +544,7 @@ async fn commander_task(
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_gate: Option<GateState> = None;
+    let mut last_observed_gate: Option<GateState> = None;
     let mut request: Option<(i64, RollRequest, i64, faithd_core::decide::Decision)> = None;
     // The newest event of the first roll call of the current unbroken run of calls.
     let mut first_call_event_us: Option<i64> = None;
@@ -596,6 +605,13 @@ async fn commander_task(
             fc: streamed.fc,
         };
         let gate = gate::evaluate(&config.gate, &vehicle, &status, &path, now_us);
+        if let Some(obs) = observer
+            .as_ref()
+            .filter(|_| last_observed_gate != Some(gate))
+        {
+            let _ = obs.send(Observation::Gate { t_us: now_us, gate });
+            last_observed_gate = Some(gate);
+        }
         if check.fault && matches!(gate, GateState::Closed(Blocker::SwitchNotAuto { .. })) {
             tracing::info!("switch out of AUTO: the roll fault is cleared");
             check.fault = false;

@@ -331,6 +331,79 @@ fn stacked_extent(c: &ClusterStats, clusters: &[ClusterStats], tolerance: f64) -
     (top, bottom)
 }
 
+/// Where the FOE must lie for cluster `c` to be in the way, pixels: its box grown by
+/// the margins, over the height of the clusters stacked with it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FoeRegion {
+    pub min_x_px: f64,
+    pub max_x_px: f64,
+    pub min_y_px: f64,
+    pub max_y_px: f64,
+}
+
+impl FoeRegion {
+    pub fn contains(&self, x_px: f64, y_px: f64) -> bool {
+        (self.min_x_px..=self.max_x_px).contains(&x_px)
+            && (self.min_y_px..=self.max_y_px).contains(&y_px)
+    }
+}
+
+/// The [`FoeRegion`] of cluster `c` among `clusters` (the decision's test; a
+/// flight's video draws it).
+pub fn foe_region(
+    c: &ClusterStats,
+    clusters: &[ClusterStats],
+    config: &DecisionConfig,
+) -> FoeRegion {
+    let (top, bottom) = stacked_extent(c, clusters, config.stack_ttc_tolerance);
+    FoeRegion {
+        min_x_px: c.min_x_px - config.box_margin_x_px,
+        max_x_px: c.max_x_px + config.box_margin_x_px,
+        min_y_px: top - config.box_margin_top_px,
+        max_y_px: bottom + config.box_margin_y_px,
+    }
+}
+
+/// Why a cluster is not an obstacle in the way of a vehicle heading for `foe_px`:
+/// the decision's checks, in the order it makes them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NotInTheWay {
+    /// Wider than `max_obstacle_width` of the image: the scene around the vehicle.
+    TooWide,
+    /// Less tall than `min_obstacle_height_px`: a stripe of horizontal edges.
+    TooFlat,
+    /// Below `min_ttc_s`: already passing, too late for any roll.
+    Passing,
+    /// The FOE lies outside its [`FoeRegion`].
+    FoeOutside,
+    /// Its own flow expands about a column beside it (see `expansion_margin`).
+    ExpandsBeside,
+}
+
+/// Whether cluster `c` (among `clusters`) is an obstacle in the way, and if not,
+/// the first check it fails.
+pub fn not_in_the_way(
+    c: &ClusterStats,
+    clusters: &[ClusterStats],
+    config: &DecisionConfig,
+    image_width_px: f64,
+    (fx, fy): (f64, f64),
+) -> Option<NotInTheWay> {
+    if c.max_x_px - c.min_x_px > config.max_obstacle_width * image_width_px {
+        Some(NotInTheWay::TooWide)
+    } else if c.max_y_px - c.min_y_px < config.min_obstacle_height_px {
+        Some(NotInTheWay::TooFlat)
+    } else if c.mean_ttc_s < config.min_ttc_s {
+        Some(NotInTheWay::Passing)
+    } else if !foe_region(c, clusters, config).contains(fx, fy) {
+        Some(NotInTheWay::FoeOutside)
+    } else if !expands_within_reach(c, config.expansion_margin) {
+        Some(NotInTheWay::ExpandsBeside)
+    } else {
+        None
+    }
+}
+
 /// Applies the rule to one window's FOE and clusters.
 pub fn decide(
     t_us: i64,
@@ -385,20 +458,8 @@ pub fn decide(
         d.reason = Reason::NoClusters;
         return d;
     };
-    let (mx, my) = (config.box_margin_x_px, config.box_margin_y_px);
-    let max_width_px = config.max_obstacle_width * image_width_px;
-    let holds_foe = |c: &ClusterStats| {
-        c.max_x_px - c.min_x_px <= max_width_px
-            && c.max_y_px - c.min_y_px >= config.min_obstacle_height_px
-            && c.mean_ttc_s >= config.min_ttc_s
-            && fx >= c.min_x_px - mx
-            && fx <= c.max_x_px + mx
-            && {
-                let (top, bottom) = stacked_extent(c, clusters, config.stack_ttc_tolerance);
-                fy >= top - config.box_margin_top_px && fy <= bottom + my
-            }
-            && expands_within_reach(c, config.expansion_margin)
-    };
+    let holds_foe =
+        |c: &ClusterStats| not_in_the_way(c, clusters, config, image_width_px, (fx, fy)).is_none();
     // The most urgent cluster in the way, if any.
     let Some(ahead) = clusters.iter().filter(|c| holds_foe(c)).min_by(by_ttc) else {
         d.obstacle = Some(*nearest);

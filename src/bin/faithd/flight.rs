@@ -7,6 +7,7 @@ use clap::Args;
 use faithd::config::FaithdConfig;
 
 use crate::Failure;
+use crate::video::{ReplayFilm, ReplaySource, VideoArgs, replay_failure};
 
 /// `faithd replay`: a recording through the pipeline, or a daemon recording checked
 /// window by window against its flight (`--windows`).
@@ -40,6 +41,8 @@ pub struct ReplayArgs {
     /// One JSON object per window.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    video: VideoArgs,
 }
 
 /// `faithd run`.
@@ -79,6 +82,14 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
     let config = load_optional(args.config.as_deref())?.unwrap_or_default();
     // The command line and the config checks both keep this positive.
     let window_us = args.window_us.unwrap_or(config.daemon.period_us);
+    let mut film = ReplayFilm::start(
+        &args.video,
+        ReplaySource::Events {
+            events: &args.events,
+            pipeline: &config.pipeline,
+            window_us,
+        },
+    )?;
     let attitude = match (&args.mavlink, &args.imu) {
         (Some(path), _) => AttitudeInput::Tlog {
             path,
@@ -99,14 +110,24 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
         window_us,
         args.json,
         &mut out,
+        &mut |events, report| film.watch(events, report),
     );
     let _ = std::io::Write::flush(&mut out);
-    result.map(|_| ()).map_err(Failure::refused)
+    result.map_err(replay_failure)?;
+    film.finish()
 }
 
 fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
     let pipeline = load_optional(args.config.as_deref())?.map(|c| c.pipeline);
     let mavlink = args.mavlink.as_deref();
+    let mut film = ReplayFilm::start(
+        &args.video,
+        ReplaySource::WindowLog {
+            events: &args.events,
+            log,
+            pipeline: pipeline.as_ref(),
+        },
+    )?;
     if mavlink.is_none() {
         eprintln!("note: no --mavlink: replaying without the recorded attitude");
     }
@@ -119,9 +140,11 @@ fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
         pipeline,
         args.json,
         &mut out,
+        &mut |events, report| film.watch(events, report),
     );
     let _ = std::io::Write::flush(&mut out);
-    let r = result.map_err(Failure::refused)?;
+    let r = result.map_err(replay_failure)?;
+    film.finish()?;
     if r.differing == 0 {
         eprintln!(
             "replayed {} windows: every one as decided in flight",

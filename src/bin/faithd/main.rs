@@ -6,6 +6,7 @@ mod docs;
 mod flight;
 #[cfg(feature = "sim")]
 mod simulate;
+mod video;
 
 use std::fmt::Display;
 use std::path::PathBuf;

@@ -9,6 +9,7 @@ use faithd::config::FaithdConfig;
 use faithd_core::pipeline::StageClock;
 
 use crate::Failure;
+use crate::video::{Filming, VideoArgs};
 
 /// `faithd demo`: the closed loop by default, or the pipeline alone (`--open-loop`).
 #[derive(Args)]
@@ -38,6 +39,8 @@ pub struct DemoArgs {
     window_us: i64,
     #[command(flatten)]
     world: WorldArgs,
+    #[command(flatten)]
+    video: VideoArgs,
 }
 
 /// The simulated world and board of a closed-loop flight.
@@ -107,6 +110,7 @@ impl WorldArgs {
                     cpu_scale: self.cpu_scale,
                 },
             },
+            film: false,
         }
     }
 
@@ -186,6 +190,12 @@ pub struct SimArgs {
     plot: PathBuf,
     #[command(flatten)]
     world: WorldArgs,
+    #[command(flatten)]
+    video: VideoArgs,
+    /// Which flight `--video` films, counted from 1 as the log numbers them.
+    #[arg(long, default_value_t = 1, requires = "video",
+          value_parser = clap::value_parser!(u32).range(1..))]
+    video_flight: u32,
 }
 
 /// `faithd bench foe`.
@@ -213,6 +223,11 @@ pub struct BenchFoeArgs {
 
 /// `faithd demo`: the closed loop, or the pipeline alone with `--open-loop`.
 pub fn demo(args: &DemoArgs) -> Result<(), Failure> {
+    if args.open_loop && args.video.video.is_some() {
+        return Err(Failure::refused(
+            "--video films the closed-loop flight; the open-loop demo has none",
+        ));
+    }
     if args.open_loop {
         open_loop_demo(args.seed, args.window_us, args.json)
     } else {
@@ -222,6 +237,11 @@ pub fn demo(args: &DemoArgs) -> Result<(), Failure> {
 
 /// `faithd sim`: the closed-loop experiment, or its straight-flight proxy.
 pub fn sim(args: &SimArgs) -> Result<(), Failure> {
+    if args.straight && args.video.video.is_some() {
+        return Err(Failure::refused(
+            "--video films a closed-loop flight; --straight flies none",
+        ));
+    }
     if args.straight {
         sim_straight(args)
     } else {
@@ -250,8 +270,13 @@ fn closed_loop_demo(args: &DemoArgs) -> Result<(), Failure> {
             "to AUTO at 0.5 s"
         }
     );
+    check_video_output(&args.video)?;
+    let options = faithd::closed_loop::FlyOptions {
+        film: args.video.video.is_some(),
+        ..args.world.options()
+    };
     let started = std::time::Instant::now();
-    let outcome = faithd::closed_loop::fly(&spec, &args.world.options())
+    let mut outcome = faithd::closed_loop::fly(&spec, &options)
         .map_err(|e| Failure::failed(format!("cannot fly the demo: {e}")))?;
     let wall_s = started.elapsed().as_secs_f64();
     if let Some(dir) = plot.parent() {
@@ -310,12 +335,64 @@ fn closed_loop_demo(args: &DemoArgs) -> Result<(), Failure> {
             Err(e) => println!("  trajectory not drawn: {e}"),
         }
     }
-    Ok(())
+    match outcome.film.take() {
+        Some(film) => {
+            let title = format!(
+                "faithd demo: {} ({:+.2} m off the pole), seed {seed}",
+                if outcome.collision_course {
+                    "collision course"
+                } else {
+                    "near pass"
+                },
+                spec.lateral_offset_m
+            );
+            write_flight_video(&args.video, film, title)
+        }
+        None => Ok(()),
+    }
+}
+
+/// Refuses a video that cannot be written before any flight is flown for it.
+fn check_video_output(args: &VideoArgs) -> Result<(), Failure> {
+    match &args.video {
+        Some(path) => faithd::video::output::check(path)
+            .map_err(|e| Failure::refused(format!("--video: {e}"))),
+        None => Ok(()),
+    }
+}
+
+/// Draws a simulated flight's frames into the video `args` asks for.
+fn write_flight_video(
+    args: &VideoArgs,
+    film: faithd::closed_loop::film::FilmedFlight,
+    title: String,
+) -> Result<(), Failure> {
+    let windows = (film.frames.len(), film.period_us);
+    let Some(mut filming) = Filming::start(args, &film.pipeline, title, film.span, windows, true)?
+    else {
+        return Ok(());
+    };
+    for frame in &film.frames {
+        filming.add(frame).map_err(Failure::failed)?;
+    }
+    filming.finish()
 }
 
 fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     use faithd::closed_loop::experiment;
     let (runs, seed) = (args.runs, args.seed);
+    let filmed = args
+        .video
+        .video
+        .is_some()
+        .then(|| args.video_flight as usize - 1);
+    if filmed.is_some_and(|i| i >= runs) {
+        return Err(Failure::refused(format!(
+            "--video-flight {}: there are {runs} flights",
+            args.video_flight
+        )));
+    }
+    check_video_output(&args.video)?;
     let mut specs = experiment::plan(runs, seed);
     for (i, spec) in specs.iter_mut().enumerate() {
         args.world.apply(i, spec);
@@ -331,7 +408,7 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     let options = args.world.options();
     let started = std::time::Instant::now();
     let progress = progress_bar(runs as u64, "flights");
-    let outcomes = experiment::fly_all(&specs, &options, threads, |i, o| {
+    let mut outcomes = experiment::fly_all(&specs, &options, threads, filmed, |i, o| {
         let line = flight_line(i, runs, &specs[i], o);
         if progress.is_hidden() {
             eprintln!("{line}");
@@ -356,6 +433,22 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     match faithd::closed_loop::plot::plot_outcomes(&outcomes, &args.plot) {
         Ok(()) => eprintln!("outcome plot: {}", args.plot.display()),
         Err(e) => eprintln!("warning: {e}"),
+    }
+    if let Some(i) = filmed {
+        let o = &mut outcomes[i];
+        let title = format!(
+            "faithd sim, seed {seed}: flight {} of {runs} ({}, {}, {:+.2} m off the pole)",
+            i + 1,
+            if o.collision_course {
+                "collision course"
+            } else {
+                "near pass"
+            },
+            o.spec.scene.name(),
+            o.spec.lateral_offset_m
+        );
+        let film = o.film.take().expect("the filmed flight keeps its frames");
+        write_flight_video(&args.video, film, title)?;
     }
     if args.json {
         println!(
