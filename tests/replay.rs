@@ -239,3 +239,40 @@ fn a_window_log_cut_short_by_a_kill_replays_up_to_its_last_whole_line() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("line 2"), "{err}");
 }
+
+/// A long replay shows how far it has got on a terminal: with its standard error on
+/// a pseudo-terminal and its windows' lines going to a file, the terminal sees the
+/// count of windows replayed; the file gets the lines and nothing of the bar.
+#[test]
+fn a_replay_counts_its_windows_on_a_terminal_and_not_in_its_output() {
+    use std::io::Read;
+    let dir = common::TempDir::new("replay-progress");
+    write_inputs(&dir.0);
+    let aedat = dir.0.join("flight.aedat4");
+    let pty = nix::pty::openpty(None, None).unwrap();
+    let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["replay", "--events", aedat.to_str().unwrap()])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::from(std::os::fd::OwnedFd::from(
+            pty.slave,
+        )))
+        .spawn()
+        .unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    // The child has exited and its end of the terminal is closed: read what it drew.
+    let mut terminal = Vec::new();
+    let mut master = std::fs::File::from(pty.master);
+    let mut buf = [0u8; 4096];
+    loop {
+        match master.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(n) => terminal.extend_from_slice(&buf[..n]),
+        }
+    }
+    let terminal = String::from_utf8_lossy(&terminal);
+    assert!(terminal.contains("windows replayed"), "{terminal:?}");
+    let lines = String::from_utf8(out.stdout).unwrap();
+    assert!(lines.lines().count() > 30, "{lines}");
+    assert!(!lines.contains("windows replayed") && !lines.contains('\r'));
+}

@@ -101,6 +101,7 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
             AttitudeInput::None
         }
     };
+    let spinner = replay_spinner(args);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let result = faithd::replay::replay(
@@ -110,11 +111,32 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
         window_us,
         args.json,
         &mut out,
-        &mut |events, report| film.watch(events, report),
+        &mut |events, report| {
+            spinner.inc(1);
+            film.watch(events, report)
+        },
     );
     let _ = std::io::Write::flush(&mut out);
+    spinner.finish_and_clear();
     result.map_err(replay_failure)?;
     film.finish()
+}
+
+/// How far a long replay has got, on standard error when it is a terminal. Hidden
+/// when the windows' lines go to the terminal too (they would tear it) and when a
+/// video is written (its own bar counts the frames); a pipe never sees it.
+fn replay_spinner(args: &ReplayArgs) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if std::io::stdout().is_terminal() || args.video.video.is_some() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let spinner = indicatif::ProgressBar::new_spinner();
+    spinner.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {pos} windows replayed, {elapsed}")
+            .expect("progress template"),
+    );
+    spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    spinner
 }
 
 fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
@@ -131,6 +153,7 @@ fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
     if mavlink.is_none() {
         eprintln!("note: no --mavlink: replaying without the recorded attitude");
     }
+    let spinner = replay_spinner(args);
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let result = faithd::replay::replay_window_log(
@@ -140,9 +163,13 @@ fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
         pipeline,
         args.json,
         &mut out,
-        &mut |events, report| film.watch(events, report),
+        &mut |events, report| {
+            spinner.inc(1);
+            film.watch(events, report)
+        },
     );
     let _ = std::io::Write::flush(&mut out);
+    spinner.finish_and_clear();
     let r = result.map_err(replay_failure)?;
     film.finish()?;
     if r.differing == 0 {
