@@ -253,9 +253,7 @@ fn a_replay_counts_its_windows_on_a_terminal_and_not_in_its_output() {
     let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
         .args(["replay", "--events", aedat.to_str().unwrap()])
         .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::from(std::os::fd::OwnedFd::from(
-            pty.slave,
-        )))
+        .stderr(std::process::Stdio::from(pty.slave))
         .spawn()
         .unwrap();
     let out = child.wait_with_output().unwrap();
