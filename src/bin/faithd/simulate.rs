@@ -410,12 +410,7 @@ fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {
     let progress = progress_bar(runs as u64, "flights");
     let mut outcomes = experiment::fly_all(&specs, &options, threads, filmed, |i, o| {
         let line = flight_line(i, runs, &specs[i], o);
-        if progress.is_hidden() {
-            eprintln!("{line}");
-        } else {
-            progress.println(line);
-        }
-        progress.inc(1);
+        step(&progress, line);
     })
     .map_err(Failure::failed)?;
     progress.finish_and_clear();
@@ -540,6 +535,16 @@ fn flight_line(
         line += &format!("\n    rolled on a near pass: {d}");
     }
     line
+}
+
+/// One item done: its line above the bar on a terminal, or alone in a pipe.
+fn step(progress: &indicatif::ProgressBar, line: String) {
+    if progress.is_hidden() {
+        eprintln!("{line}");
+    } else {
+        progress.println(line);
+    }
+    progress.inc(1);
 }
 
 /// A progress bar on standard error when it is a terminal; hidden (and silent) in
@@ -872,12 +877,7 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
             t.mean_vectors,
             started.elapsed().as_secs_f64()
         );
-        if progress.is_hidden() {
-            eprintln!("{line}");
-        } else {
-            progress.println(line);
-        }
-        progress.inc(1);
+        step(&progress, line);
     });
     progress.finish_and_clear();
     if json {
