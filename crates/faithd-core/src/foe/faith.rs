@@ -239,6 +239,8 @@ pub struct Faith {
     /// speed fit.
     unit: UnitFlow,
     speed_fit: SpeedFit,
+    /// The far-field check's candidates: (support, ray angle, off-axis degrees).
+    far_candidates: Vec<(usize, f64, f64)>,
 }
 
 impl Faith {
@@ -260,6 +262,7 @@ impl Faith {
             leftward: Vec::new(),
             unit: UnitFlow::default(),
             speed_fit: SpeedFit::new(),
+            far_candidates: Vec::new(),
         }
     }
 
@@ -283,6 +286,9 @@ impl Faith {
             .reserve((512 * 514usize).saturating_sub(self.grid.len()));
         self.unit.reserve(vectors);
         self.speed_fit.reserve(vectors);
+        let probes = FAR_PROBE_TURNS_DEG.len() * (FAR_PROBE_MAX_DEG / FAR_PROBE_STEP_DEG) as usize;
+        self.far_candidates
+            .reserve(probes.saturating_sub(self.far_candidates.len()));
     }
 
     /// Sets the iteration count; the daemon lowers it to shed load under a tight budget.
@@ -703,6 +709,9 @@ impl FoeEstimator for Faith {
                     return self.unbounded(ox, oy, support);
                 }
                 let support = self.score(ox, oy);
+                if let Some(beyond) = self.look_beyond(ox, oy, support) {
+                    return beyond;
+                }
                 return FoeEstimate::Point {
                     x_px: ox,
                     y_px: oy,
@@ -757,6 +766,9 @@ impl FoeEstimator for Faith {
             // One scoring pass for wherever the plateau and speed steps left the FOE.
             support = self.score(x, y);
         }
+        if let Some(beyond) = self.look_beyond(x, y, support) {
+            return beyond;
+        }
         FoeEstimate::Point {
             x_px: x,
             y_px: y,
@@ -765,7 +777,142 @@ impl FoeEstimator for Faith {
     }
 }
 
+/// Off-axis angles the far-field check looks at beyond an estimate outside the view:
+/// every 2.5 degrees out to this.
+const FAR_PROBE_MAX_DEG: f64 = 87.5;
+const FAR_PROBE_STEP_DEG: f64 = 2.5;
+/// ...along the estimate's direction from the principal point and these turns of it.
+const FAR_PROBE_TURNS_DEG: [f64; 5] = [0.0, -6.0, 6.0, -12.0, 12.0];
+
 impl Faith {
+    /// An estimate outside the view is checked against the far field along its ray.
+    ///
+    /// With outliers among the vectors, a few of them close the region the others
+    /// leave open toward an FOE far off axis, and the search settles just past the
+    /// border (an FOE 63 to 80 degrees off axis came back 17 to 36 px past it, 29 to
+    /// 53 degrees off). Every inlier's half-plane holds the far FOE; seen from a
+    /// point near the border, the edges' lines fan out and many exclude it. So the
+    /// points further out along the same ray (and rays turned 6 and 12 degrees either
+    /// way) are scored, and `far_verdict` weighs them against the estimate.
+    ///
+    /// Only with the speed fit on: one of the two tests needs its patches, and the
+    /// configurations without it (`directions_only`, `paper`) are the benchmark's
+    /// references for what each step is worth, kept as they were. An estimate inside
+    /// the view is never looked at, so it keeps every bit.
+    fn look_beyond(&mut self, x: f64, y: f64, support: usize) -> Option<FoeEstimate> {
+        let (w, h) = self.sensor_max_px();
+        let speed_config = self.config.speed_fit();
+        if (0.0..=w).contains(&x) && (0.0..=h).contains(&y) || speed_config.radius_px <= 0.0 {
+            return None;
+        }
+        let (xn, yn) = self.camera.normalise(x, y);
+        let r = xn.hypot(yn);
+        if r <= 0.0 {
+            return None;
+        }
+        let sensor_px = (self.camera.width_px, self.camera.height_px);
+        self.speed_fit
+            .load_patches(&self.unit, sensor_px, speed_config.patch_px);
+        let start_deg = r.atan().to_degrees();
+        let heading = yn.atan2(xn);
+        // Candidates along the estimate's ray and rays either side of it (an estimate
+        // past the border is off in direction too), out to nearly 90 degrees. The
+        // buffer is kept between windows: the steady state allocates nothing.
+        let mut candidates = std::mem::take(&mut self.far_candidates);
+        candidates.clear();
+        for turn_deg in FAR_PROBE_TURNS_DEG {
+            let phi = heading + turn_deg.to_radians();
+            let mut deg = start_deg + FAR_PROBE_STEP_DEG;
+            while deg <= FAR_PROBE_MAX_DEG + 1e-9 {
+                let (px, py) = self.off_axis_px(phi, deg);
+                candidates.push((self.score(px, py), phi, deg));
+                deg += FAR_PROBE_STEP_DEG;
+            }
+        }
+        let verdict = self.far_verdict(&candidates, (x, y), support);
+        self.far_candidates = candidates;
+        verdict
+    }
+
+    /// The pixel `deg` degrees off axis in the direction `phi` (radians) from the
+    /// principal point.
+    fn off_axis_px(&self, phi: f64, deg: f64) -> (f64, f64) {
+        let t = deg.to_radians().tan();
+        self.camera.to_pixels(phi.cos() * t, phi.sin() * t)
+    }
+
+    /// What the far field says of an estimate outside the view, from the scored
+    /// candidates beyond it: `Unbounded`, a point further out, or nothing to change.
+    ///
+    /// The estimate moves only on evidence that it is not where the flow converges:
+    /// - the directions: points further out hold clearly more half-planes than the
+    ///   estimate (by more than 1.5 times the plateau's slack), so the estimate sits
+    ///   on an area that a few outliers closed; or
+    /// - the speeds: the half-planes are as many out to the last angle as anywhere
+    ///   (within the slack of the best) and the speeds fit there no worse than at
+    ///   the estimate.
+    ///
+    /// An FOE just inside or past the border (where the simulator's flights at 30
+    /// degrees put it) shows neither: too few vectors lie beyond it for the support to
+    /// drop further out, but it does not rise either (at most 2 half-planes on
+    /// `bench foe` seed 1, against a slack of 6 to 24), and its speeds, which grow
+    /// with the distance from it, fit a far FOE worse (by 11 % and more at the last
+    /// angle). An FOE far off axis among 15 % outliers gains 3 to 97 half-planes
+    /// further out, and where it gains little its speeds fit the far points 2 to 5 %
+    /// better. The margin of 1.5 slacks rather than one: a rotating flight of seed 3
+    /// (465 vectors, FOE in view 19 px from the border) gained 6 against a slack of
+    /// 5, and moving it doubled its error; at 1000 vectors it costs one of 150
+    /// synthetic far fields (70 degrees off axis, toward a corner).
+    ///
+    /// When the support keeps within the slack of the best out to the last angle
+    /// along some ray, the FOE is reported as `Unbounded` toward the far point there
+    /// whose speeds fit best; otherwise (with a clear gain) as the point of the
+    /// plateau whose speeds fit best.
+    fn far_verdict(
+        &self,
+        candidates: &[(usize, f64, f64)],
+        estimate: (f64, f64),
+        support: usize,
+    ) -> Option<FoeEstimate> {
+        let n = self.nx.len();
+        let slack = (self.config.plateau_fraction * n as f64).ceil() as usize;
+        let top = candidates
+            .iter()
+            .map(|c| c.0)
+            .max()
+            .unwrap_or(0)
+            .max(support);
+        let gain = 2 * (top - support) > 3 * slack;
+        let own_cost = self.speed_fit.cost(estimate.0, estimate.1);
+        let cost_at = |&(score, phi, deg): &(usize, f64, f64)| {
+            let (px, py) = self.off_axis_px(phi, deg);
+            (self.speed_fit.cost(px, py), score, px, py)
+        };
+        let far_deg = candidates.iter().map(|c| c.2).fold(0.0, f64::max);
+        let unbounded = candidates
+            .iter()
+            .filter(|c| c.2 == far_deg && c.0 + slack >= top)
+            .map(cost_at)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .filter(|&(cost, ..)| gain || cost <= own_cost);
+        if let Some((_, score, px, py)) = unbounded {
+            return Some(self.unbounded(px, py, score.max(support)));
+        }
+        if !gain {
+            return None;
+        }
+        let (_, score, px, py) = candidates
+            .iter()
+            .filter(|c| c.0 + slack >= top)
+            .map(cost_at)
+            .min_by(|a, b| a.0.total_cmp(&b.0))?;
+        Some(FoeEstimate::Point {
+            x_px: px,
+            y_px: py,
+            support: score,
+        })
+    }
+
     /// The FOE lies beyond the view, in the direction of `(x, y)` from the centre.
     fn unbounded(&self, x: f64, y: f64, support: usize) -> FoeEstimate {
         FoeEstimate::unbounded_towards(&self.camera, x, y, None, support)
@@ -875,6 +1022,43 @@ mod tests {
                 other => panic!("{foe:?}: expected unbounded, got {other:?}"),
             }
         }
+    }
+
+    /// With 15 % outliers a few of them close the area toward an FOE far off axis;
+    /// the far-field check still finds it: `Unbounded` toward it, or a point within
+    /// 10 degrees. Without the check every one of these came back as a point 17 to
+    /// 36 px past the border, 26 to 54 degrees off (the 29 to 53).
+    #[test]
+    fn foe_far_off_axis_among_outliers_is_unbounded_toward_it() {
+        let cam = CameraIntrinsics::dvs240();
+        let (mut right, mut cases) = (0, 0);
+        for off_axis_deg in [63.0f64, 70.0, 80.0] {
+            for direction_deg in [0.0f64, 30.0, 90.0, 180.0, 270.0] {
+                let r = cam.fx_px * off_axis_deg.to_radians().tan();
+                let (c, s) = (
+                    direction_deg.to_radians().cos(),
+                    direction_deg.to_radians().sin(),
+                );
+                let foe = (cam.cx_px + r * c, cam.cy_px + r * s);
+                for seed in 0..6 {
+                    let est = run(FaithConfig::default(), &noisy(foe), seed);
+                    cases += 1;
+                    let ok = match est {
+                        FoeEstimate::Unbounded { dx, dy, .. } => dx * c + dy * s > 0.9,
+                        FoeEstimate::Point { x_px, y_px, .. } => {
+                            cam.angle_between_deg((x_px, y_px), foe) < 10.0
+                        }
+                        FoeEstimate::Insufficient { .. } => false,
+                    };
+                    right += usize::from(ok);
+                }
+            }
+        }
+        // 90 of 90 when written (fields 0 to 9 with other draws: 149 of 150). A
+        // first rule (`Unbounded` only when every point along a ray is on the
+        // plateau and the speeds fit no worse) found 54: beyond the estimate the
+        // support climbs over several steps before it levels off.
+        assert!(right * 100 >= cases * 95, "{right} of {cases}");
     }
 
     #[test]

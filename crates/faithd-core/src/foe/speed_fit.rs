@@ -249,6 +249,13 @@ impl SpeedFit {
         self.weighted_mean(config.temperature)
     }
 
+    /// Sums the patches of `unit` for [`Self::cost`] (as `refine_unit` does first).
+    pub(crate) fn load_patches(&mut self, unit: &UnitFlow, sensor_px: (u16, u16), patch_px: f64) {
+        if patch_px > 0.0 {
+            self.sum_patches(unit, sensor_px, patch_px);
+        }
+    }
+
     /// `J` at one candidate FOE: the sum of the patches' residuals.
     pub fn cost(&self, fx: f64, fy: f64) -> f64 {
         self.occupied.iter().map(|p| p.residual(fx, fy)).sum()
