@@ -15,7 +15,7 @@ use faithd_core::attitude::AttitudeSample;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::cluster::{Dbscan, DbscanConfig, cluster_features};
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
-use faithd_core::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::synth::{LoomingEdges, looming_edge_events, pipeline_shaped_features};
 
 const WINDOW_US: i64 = 10_000;
 
@@ -64,30 +64,6 @@ fn looming_pole_features() -> Vec<[f64; 3]> {
     best
 }
 
-/// `n` points: a pole (narrow, tall, low TTC), a closer box, a far wall band and a
-/// sparse background, mixed in index order as the pipeline's history mixes them.
-fn synthetic_features(n: usize) -> Vec<[f64; 3]> {
-    let mut s = 0x5eed_u64;
-    let mut rnd = move || {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (s >> 11) as f64 / (1u64 << 53) as f64
-    };
-    (0..n)
-        .map(|k| match k % 10 {
-            // Pole: 8 % of the width, the whole height, TTC z about -1.6.
-            0..=2 => [0.48 + 0.08 * rnd(), rnd(), -1.6 + 0.25 * rnd()],
-            // A closer box low in the view.
-            3 => [0.15 + 0.2 * rnd(), 0.6 + 0.3 * rnd(), -2.4 + 0.3 * rnd()],
-            // The far wall: everywhere, TTC spread about the mean.
-            4..=7 => [rnd(), rnd(), 0.2 + 0.9 * rnd()],
-            // Background: anything, long tail of TTC.
-            _ => [rnd(), rnd(), -3.0 + 9.0 * rnd() * rnd()],
-        })
-        .collect()
-}
-
 fn bench_dbscan(c: &mut Criterion) {
     let mut group = c.benchmark_group("dbscan");
     let mut dbscan = Dbscan::new(DbscanConfig::default());
@@ -98,7 +74,7 @@ fn bench_dbscan(c: &mut Criterion) {
         b.iter(|| black_box(dbscan.run(black_box(&pole), &mut labels)))
     });
     for n in [1000, 3000, 6000] {
-        let points = synthetic_features(n);
+        let points = pipeline_shaped_features(n, 0x5eed);
         group.throughput(Throughput::Elements(n as u64));
         group.bench_function(BenchmarkId::new("synthetic", n), |b| {
             b.iter(|| black_box(dbscan.run(black_box(&points), &mut labels)))

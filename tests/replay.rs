@@ -12,9 +12,6 @@ use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
 use faithd_core::synth::{LoomingEdges, looming_edge_events};
 use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Writer};
 use faithd_formats::events::text::TextWriter;
-use faithd_formats::tlog::TlogWriter;
-use mavlink::MavHeader;
-use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
 
 fn events() -> Vec<faithd_core::event::Event> {
     let mut scene = LoomingEdges::pole_ahead((125.0, 88.0));
@@ -55,23 +52,10 @@ fn write_inputs(dir: &Path) {
     t.write_events(&ev).unwrap();
     t.finish().unwrap();
     // Level flight: attitude every 10 ms, in the events' time base.
-    let mut tlog = TlogWriter::new(std::fs::File::create(dir.join("flight.tlog")).unwrap());
-    let mut imu = String::new();
-    for k in 0..=70u32 {
-        let header = MavHeader {
-            system_id: 1,
-            component_id: 1,
-            sequence: k as u8,
-        };
-        let msg = MavMessage::ATTITUDE(ATTITUDE_DATA {
-            time_boot_ms: k * 10,
-            ..Default::default()
-        });
-        tlog.write(1_700_000_000_000_000 + u64::from(k) * 10_000, header, &msg)
-            .unwrap();
-        imu.push_str(&format!("{:.6} 0 0 9.81 0 0 0\n", f64::from(k) * 0.01));
-    }
-    tlog.flush().unwrap();
+    common::recording::write_level_tlog(&dir.join("flight.tlog"), 700);
+    let imu: String = (0..=70u32)
+        .map(|k| format!("{:.6} 0 0 9.81 0 0 0\n", f64::from(k) * 0.01))
+        .collect();
     std::fs::write(dir.join("imu.txt"), imu).unwrap();
 }
 

@@ -18,9 +18,6 @@ use faithd_core::camera::CameraIntrinsics;
 use faithd_core::pipeline::PipelineConfig;
 use faithd_core::synth::{LoomingEdges, looming_edge_events};
 use faithd_formats::events::aedat4::{Aedat4Config, Aedat4Writer};
-use faithd_formats::tlog::TlogWriter;
-use mavlink::MavHeader;
-use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
 use plotters::style::RGBColor;
 
 /// A 0.6 s approach to a pole dead ahead (events as AEDAT 4, level attitude as a
@@ -36,21 +33,7 @@ fn write_recording(dir: &Path) {
         w.write_events(chunk).unwrap();
     }
     w.finish().unwrap();
-    let mut tlog = TlogWriter::new(std::fs::File::create(dir.join("flight.tlog")).unwrap());
-    for k in 0..=70u32 {
-        let header = MavHeader {
-            system_id: 1,
-            component_id: 1,
-            sequence: k as u8,
-        };
-        let msg = MavMessage::ATTITUDE(ATTITUDE_DATA {
-            time_boot_ms: k * 10,
-            ..Default::default()
-        });
-        tlog.write(1_700_000_000_000_000 + u64::from(k) * 10_000, header, &msg)
-            .unwrap();
-    }
-    tlog.flush().unwrap();
+    common::recording::write_level_tlog(&dir.join("flight.tlog"), 700);
 }
 
 fn faithd(args: &[&str]) -> Output {

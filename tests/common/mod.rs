@@ -9,6 +9,7 @@
 pub mod autopilot;
 pub mod daemon;
 pub mod msp;
+pub mod recording;
 pub mod sitl;
 
 use std::os::fd::OwnedFd;

@@ -249,26 +249,6 @@ mod tests {
         assert_eq!(labels, dbscan_brute_force(&pts, &DbscanConfig::default()));
     }
 
-    /// Features shaped like the pipeline's (the cluster bench's generator): dense
-    /// groups at different TTC z-scores over a sparse background with a long tail.
-    fn pipeline_shaped(n: usize, seed: u64) -> Vec<[f64; 3]> {
-        let mut s = seed;
-        let mut rnd = move || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        (0..n)
-            .map(|k| match k % 10 {
-                0..=2 => [0.48 + 0.08 * rnd(), rnd(), -1.6 + 0.25 * rnd()],
-                3 => [0.15 + 0.2 * rnd(), 0.6 + 0.3 * rnd(), -2.4 + 0.3 * rnd()],
-                4..=7 => [rnd(), rnd(), 0.2 + 0.9 * rnd()],
-                _ => [rnd(), rnd(), -3.0 + 9.0 * rnd() * rnd()],
-            })
-            .collect()
-    }
-
     /// Runs the dense grid alone; `None` when it declines the input.
     fn dense_only(pts: &[[f64; 3]], config: &DbscanConfig) -> Option<Vec<Option<u32>>> {
         let mut labels = vec![None; pts.len()];
@@ -286,7 +266,7 @@ mod tests {
             (1500, 4, 0.35, 40),
             (800, 5, 0.2, 1),
         ] {
-            let pts = pipeline_shaped(n, seed);
+            let pts = crate::synth::pipeline_shaped_features(n, seed);
             let config = DbscanConfig { eps, min_points };
             let reference = dbscan_brute_force(&pts, &config);
             assert_eq!(
@@ -310,7 +290,7 @@ mod tests {
     #[test]
     fn wide_inputs_fall_back_to_the_sparse_grid() {
         let config = DbscanConfig::default();
-        let mut pts = pipeline_shaped(300, 7);
+        let mut pts = crate::synth::pipeline_shaped_features(300, 7);
         // A far point: TTC z-scores of a few outliers reach hundreds of eps, which the
         // compression of empty layers absorbs.
         pts.push([0.5, 0.5, 5000.0]);
@@ -342,7 +322,7 @@ mod tests {
             eps: 0.2,
             min_points: 3,
         };
-        let mut pts = pipeline_shaped(200, 8);
+        let mut pts = crate::synth::pipeline_shaped_features(200, 8);
         pts[3] = [f64::NAN, 0.1, 0.1];
         pts[50] = [0.1, f64::INFINITY, 0.1];
         pts[77] = [0.1, 0.1, f64::NEG_INFINITY];

@@ -1,0 +1,27 @@
+//! Recorded inputs for the replay tests: what a flight's recorder would have written.
+
+use std::path::Path;
+
+use faithd_formats::tlog::TlogWriter;
+use mavlink::MavHeader;
+use mavlink::dialects::common::{ATTITUDE_DATA, MavMessage};
+
+/// A .tlog of level flight: ATTITUDE every 10 ms from boot time 0 to `last_ms`, from
+/// system 1, component 1, stamped from an arbitrary Unix time on.
+pub fn write_level_tlog(path: &Path, last_ms: u32) {
+    let mut tlog = TlogWriter::new(std::fs::File::create(path).unwrap());
+    for k in 0..=last_ms / 10 {
+        let header = MavHeader {
+            system_id: 1,
+            component_id: 1,
+            sequence: k as u8,
+        };
+        let msg = MavMessage::ATTITUDE(ATTITUDE_DATA {
+            time_boot_ms: k * 10,
+            ..Default::default()
+        });
+        tlog.write(1_700_000_000_000_000 + u64::from(k) * 10_000, header, &msg)
+            .unwrap();
+    }
+    tlog.flush().unwrap();
+}
