@@ -17,10 +17,13 @@
 //! - all core points of a cell are in one component, so components are found over
 //!   cells (union-find), testing a pair of neighbouring cells only while they are still
 //!   apart, and stopping at the first pair of points within eps;
-//! - a border point tries the clusters around it lowest number first and stops at the
-//!   first core point within eps;
+//! - a point that is not core has walked every cell in its reach to learn so, and
+//!   keeps the list of the points within eps it found there (fewer than min_points):
+//!   as a border point it takes the lowest cluster among the core ones of that list,
+//!   with no second search;
 //! - a point only looks at the cells whose box comes within eps of it (about a third
-//!   of the 125 around it).
+//!   of the 125 around it), and up to four consecutive points of one row of the grid
+//!   share that walk.
 //!
 //! The grid is a dense array: the cell coordinates of each axis are compressed (a run
 //! of empty layers becomes at most two, which keeps every "at most two apart"
@@ -87,28 +90,20 @@ fn count_within(xs: &[f64], ys: &[f64], zs: &[f64], p: [f64; 3], eps2: f64) -> u
     count
 }
 
-/// Points whose core tests share one walk over the cells around theirs.
-const GROUP: usize = 2;
+/// Points whose core tests share one walk over the cells around theirs: consecutive
+/// points of one row of the grid, at most `GROUP_SPAN_CELLS` cells apart.
+const GROUP: usize = 4;
+/// How far apart (in cells along x) the first and last cell of a group may be.
+const GROUP_SPAN_CELLS: usize = 2;
 
-/// For each point of `ps`, the number of points of the slices within `eps2` of it,
-/// computed as `dist2` computes it; each point of the slices is loaded once for all.
-fn count_within_group(
-    xs: &[f64],
-    ys: &[f64],
-    zs: &[f64],
-    ps: &[[f64; 3]; GROUP],
-    eps2: f64,
-) -> [usize; GROUP] {
-    let n = xs.len();
-    let (ys, zs) = (&ys[..n], &zs[..n]);
-    let mut counts = [0usize; GROUP];
-    for k in 0..n {
-        let q = [xs[k], ys[k], zs[k]];
-        for (count, p) in counts.iter_mut().zip(ps) {
-            *count += usize::from(dist2(p, &q) <= eps2);
-        }
-    }
-    counts
+/// Points of one row of the grid whose core tests share a walk.
+#[derive(Default)]
+struct Group {
+    len: usize,
+    /// Sorted position, dense cell, and the count at which the test may stop.
+    pos: [usize; GROUP],
+    cell: [usize; GROUP],
+    limit: [usize; GROUP],
 }
 
 /// What `assign_cells` found.
@@ -165,8 +160,12 @@ pub(super) struct DenseGrid {
     /// (the forward half, for pairs of cells taken once).
     rows: Vec<Row>,
     forward_rows: Vec<Row>,
-    /// Candidate clusters of a cell's border points: (cluster, occupied cell, offset).
-    candidates: Vec<(u32, u32, [i8; 3])>,
+    /// Per point that is not core: (original index, range in `neighbours`).
+    non_core: Vec<(u32, u32, u32)>,
+    /// Original indices of the points within eps of each point that is not core.
+    neighbours: Vec<u32>,
+    /// Scratch hit lists of the points of a core test, as sorted positions.
+    hits: [Vec<u32>; GROUP],
 }
 
 impl DenseGrid {
@@ -204,7 +203,7 @@ impl DenseGrid {
         self.find_core_points(eps2, min_points);
         self.join_core_cells(eps2);
         let clusters = self.number_clusters(labels);
-        self.label_border_points(eps2, labels);
+        self.label_border_points(labels);
         Some(clusters)
     }
 
@@ -416,19 +415,52 @@ impl DenseGrid {
         )
     }
 
+    /// For each point of `ps`, appends to its hit list (from its count on) the sorted
+    /// positions in `range` of the points within `eps2` of it, computed as `dist2`
+    /// computes it. Each point of the range is loaded once for all; the lists are
+    /// written branch-free, so each must have room for every point walked.
+    fn collect_within(
+        &self,
+        range: Range<usize>,
+        ps: &[[f64; 3]; GROUP],
+        eps2: f64,
+        hits: &mut [&mut [u32]; GROUP],
+        counts: &mut [usize; GROUP],
+    ) {
+        let base = range.start;
+        let xs = &self.xs[range.clone()];
+        let (ys, zs) = (&self.ys[range.clone()], &self.zs[range]);
+        for (k, ((&x, &y), &z)) in xs.iter().zip(ys).zip(zs).enumerate() {
+            let inside = ps.map(|p| dist2(&p, &[x, y, z]) <= eps2);
+            for i in 0..GROUP {
+                hits[i][counts[i]] = (base + k) as u32;
+                counts[i] += usize::from(inside[i]);
+            }
+        }
+    }
+
     /// Squared gaps (in cells) from sorted point `pos` to the cells around it, per
     /// axis.
     fn gaps_of(&self, pos: usize) -> [[f64; 5]; 3] {
         self.fracs[pos].map(gaps2)
     }
 
-    /// Marks core points and moves them to the front of their cell.
+    /// Marks core points and moves them to the front of their cell; records, for every
+    /// point that is not core, the points within eps of it (`non_core`, `neighbours`).
     fn find_core_points(&mut self, eps2: f64, min_points: usize) {
         let m = self.cells.len();
-        self.core_count.clear();
-        self.core_count.resize(m, 0);
         self.core_point.clear();
         self.core_point.resize(self.cell_of_point.len(), false);
+        self.non_core.clear();
+        self.neighbours.clear();
+        let mut hits = std::mem::take(&mut self.hits);
+        // A hit list never holds more than every point.
+        for list in &mut hits {
+            if list.len() < self.index.len() {
+                list.resize(self.index.len(), 0);
+            }
+        }
+        let mut group = Group::default();
         for k in 0..m {
             let c = self.cells[k] as usize;
             let (begin, end) = (self.first(c), self.first(c + 1));
@@ -437,7 +469,6 @@ impl DenseGrid {
                 for pos in begin..end {
                     self.core_point[self.index[pos] as usize] = true;
                 }
-                self.core_count[k] = (end - begin) as u32;
                 continue;
             }
             // Points in the 125 cells around: an upper bound on any point's count.
@@ -449,81 +480,113 @@ impl DenseGrid {
                     self.first(middle + 3) - self.first(middle - 2)
                 })
                 .sum();
-            if reach < min_points {
-                continue;
-            }
-            let mut core = 0;
-            for group in (begin..end).step_by(GROUP) {
-                let group = group..(group + GROUP).min(end);
-                for (pos, is_core) in group
-                    .clone()
-                    .zip(self.core_group(c, group, eps2, min_points))
-                {
-                    if is_core {
-                        self.core_point[self.index[pos] as usize] = true;
-                        core += 1;
-                    }
+            // Below min_points no point here can be core; the walk still lists their
+            // neighbours, for the border test.
+            let limit = if reach < min_points {
+                usize::MAX
+            } else {
+                min_points
+            };
+            for pos in begin..end {
+                if group.len == GROUP || (group.len > 0 && c - group.cell[0] > GROUP_SPAN_CELLS) {
+                    self.test_group(&group, eps2, min_points, &mut hits);
+                    group.len = 0;
                 }
+                (group.pos[group.len], group.cell[group.len]) = (pos, c);
+                group.limit[group.len] = limit;
+                group.len += 1;
             }
-            self.core_count[k] = core;
-            if core > 0 && core < (end - begin) as u32 {
+        }
+        if group.len > 0 {
+            self.test_group(&group, eps2, min_points, &mut hits);
+        }
+        self.hits = hits;
+        self.core_count.clear();
+        for k in 0..m {
+            let c = self.cells[k] as usize;
+            let (begin, end) = (self.first(c), self.first(c + 1));
+            let core = (begin..end)
+                .filter(|&pos| self.core_point[self.index[pos] as usize])
+                .count();
+            self.core_count.push(core as u32);
+            if core > 0 && core < end - begin {
                 self.core_first(begin, end);
             }
         }
     }
 
-    /// Which of up to `GROUP` points of cell `c` (sorted positions `group`) are core.
-    ///
-    /// The points share the walk over the rows around the cell (nearest first, each
-    /// row cut to the cells that come within eps of any of them, and scanned once for
-    /// all of them), until each has its min_points.
-    fn core_group(
-        &self,
-        c: usize,
-        group: Range<usize>,
+    /// Marks the core points of `group`, and lists the neighbours of the others.
+    fn test_group(
+        &mut self,
+        group: &Group,
         eps2: f64,
         min_points: usize,
-    ) -> [bool; GROUP] {
-        // A NaN point (filling a short group) is within eps of nothing.
+        hits: &mut [Vec<u32>; GROUP],
+    ) {
+        let counts = self.walk_group(group, eps2, hits);
+        for i in 0..group.len {
+            let point = self.index[group.pos[i]];
+            if counts[i] >= min_points {
+                self.core_point[point as usize] = true;
+            } else {
+                // A point short of min_points walked every cell in reach, so its list
+                // is whole.
+                let start = self.neighbours.len() as u32;
+                for &q in &hits[i][..counts[i]] {
+                    self.neighbours.push(self.index[q as usize]);
+                }
+                self.non_core
+                    .push((point, start, self.neighbours.len() as u32));
+            }
+        }
+    }
+
+    /// How many points are within eps of each point of `group`, each counted until it
+    /// reaches its limit; the sorted positions of those found are in `hits` (the first
+    /// count of each list).
+    ///
+    /// The points share the walk over the rows around their cells (nearest first, each
+    /// row cut to the cells that come within eps of any of them, and scanned once for
+    /// all of them). Their cells lie in one row of the grid, so the union of their
+    /// spans along a row is one run of cells.
+    fn walk_group(&self, group: &Group, eps2: f64, hits: &mut [Vec<u32>; GROUP]) -> [usize; GROUP] {
+        // A missing member is a NaN point, within eps of nothing, that needs nothing.
         let mut ps = [[f64::NAN; 3]; GROUP];
         let mut gaps = [[[0.0; 5]; 3]; GROUP];
-        let mut counts = [min_points; GROUP];
-        for (i, pos) in group.enumerate() {
+        let mut shift = [0isize; GROUP];
+        let mut limit = [0usize; GROUP];
+        let base = group.cell[0];
+        for i in 0..group.len {
+            let pos = group.pos[i];
             ps[i] = [self.xs[pos], self.ys[pos], self.zs[pos]];
             gaps[i] = self.gaps_of(pos);
-            counts[i] = 0;
+            shift[i] = (group.cell[i] - base) as isize;
+            limit[i] = group.limit[i];
         }
+        let mut counts = [0usize; GROUP];
+        let mut lists = hits.each_mut().map(|list| list.as_mut_slice());
         for r in &self.rows {
             let (mut lo, mut hi) = (isize::MAX, isize::MIN);
             for i in 0..GROUP {
                 let [gx2, gy2, gz2] = &gaps[i];
                 let rest2 = REACH2_CELLS - gy2[(r.dy + 2) as usize] - gz2[(r.dz + 2) as usize];
-                if counts[i] < min_points && rest2 >= 0.0 {
+                if counts[i] < limit[i] && rest2 >= 0.0 {
                     let (l, h) = x_span(gx2, rest2);
-                    (lo, hi) = (lo.min(l), hi.max(h));
+                    (lo, hi) = (lo.min(shift[i] + l), hi.max(shift[i] + h));
                 }
             }
             if lo > hi {
                 continue;
             }
-            let middle = c.wrapping_add_signed(r.middle);
+            let middle = base.wrapping_add_signed(r.middle);
             let points = self.first(middle.wrapping_add_signed(lo))
                 ..self.first(middle.wrapping_add_signed(hi + 1));
-            let found = count_within_group(
-                &self.xs[points.clone()],
-                &self.ys[points.clone()],
-                &self.zs[points],
-                &ps,
-                eps2,
-            );
-            for i in 0..GROUP {
-                counts[i] += found[i];
-            }
-            if counts.iter().all(|&n| n >= min_points) {
+            self.collect_within(points, &ps, eps2, &mut lists, &mut counts);
+            if (0..GROUP).all(|i| counts[i] >= limit[i]) {
                 break;
             }
         }
-        counts.map(|n| n >= min_points)
+        counts
     }
 
     /// Reorders the sorted points `begin..end` (one cell) so the core ones come first.
@@ -691,47 +754,17 @@ impl DenseGrid {
     }
 
     /// Gives each non-core point the lowest cluster number among the core points within
-    /// eps of it.
-    fn label_border_points(&mut self, eps2: f64, labels: &mut [Option<u32>]) {
-        let mut candidates = std::mem::take(&mut self.candidates);
-        for k in 0..self.cells.len() {
-            let c = self.cells[k] as usize;
-            let (core_end, end) = (self.core_range(k).end, self.first(c + 1));
-            if core_end == end {
-                continue;
-            }
-            // The cell's own core points are within eps of all its points.
-            let own = if self.core_count[k] > 0 {
-                self.cluster[k]
-            } else {
-                NONE
-            };
-            candidates.clear();
-            for row in &self.rows {
-                let middle = c.wrapping_add_signed(row.middle);
-                let run = &self.marks[middle - 2..middle + 3];
-                // A cell without core points is NONE, never below `own`.
-                if run.iter().fold(NONE, |a, &b| a.min(b)) >= own {
-                    continue;
-                }
-                for (dx, &id) in (-2..=2).zip(run) {
-                    if id < own {
-                        let j = self.occupied_before[middle.wrapping_add_signed(dx as isize)];
-                        candidates.push((id, j, [dx, row.dy, row.dz]));
-                    }
-                }
-            }
-            candidates.sort_unstable_by_key(|c| (c.0, c.1));
-            for pos in core_end..end {
-                let best = candidates
-                    .iter()
-                    .find(|&&(_, j, d)| self.touches(pos, j as usize, d, eps2))
-                    .map_or(own, |&(id, _, _)| id);
-                if best != NONE {
-                    labels[self.index[pos] as usize] = Some(best);
-                }
+    /// eps of it (its list from `find_core_points`).
+    fn label_border_points(&self, labels: &mut [Option<u32>]) {
+        for &(point, start, end) in &self.non_core {
+            let best = self.neighbours[start as usize..end as usize]
+                .iter()
+                .filter(|&&q| self.core_point[q as usize])
+                .filter_map(|&q| labels[q as usize])
+                .min();
+            if best.is_some() {
+                labels[point as usize] = best;
             }
         }
-        self.candidates = candidates;
     }
 }
