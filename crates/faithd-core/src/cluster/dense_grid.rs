@@ -20,7 +20,9 @@
 //! - a point that is not core has walked every cell in its reach to learn so, and
 //!   keeps the list of the points within eps it found there (fewer than min_points):
 //!   as a border point it takes the lowest cluster among the core ones of that list,
-//!   with no second search;
+//!   with no second search; the points of a cell with fewer than min_points points in
+//!   the 125 cells around are not tested, and look for a core point within eps only
+//!   when a cell in reach has one;
 //! - a point only looks at the cells whose box comes within eps of it (about a third
 //!   of the 125 around it), and up to four consecutive points of one row of the grid
 //!   share that walk.
@@ -164,6 +166,8 @@ pub(super) struct DenseGrid {
     non_core: Vec<(u32, u32, u32)>,
     /// Original indices of the points within eps of each point that is not core.
     neighbours: Vec<u32>,
+    /// Occupied cells with fewer than min_points points in reach.
+    lonely_cells: Vec<u32>,
     /// Scratch hit lists of the points of a core test, as sorted positions.
     hits: [Vec<u32>; GROUP],
 }
@@ -203,7 +207,7 @@ impl DenseGrid {
         self.find_core_points(eps2, min_points);
         self.join_core_cells(eps2);
         let clusters = self.number_clusters(labels);
-        self.label_border_points(labels);
+        self.label_border_points(eps2, labels);
         Some(clusters)
     }
 
@@ -453,6 +457,7 @@ impl DenseGrid {
         self.core_point.resize(self.cell_of_point.len(), false);
         self.non_core.clear();
         self.neighbours.clear();
+        self.lonely_cells.clear();
         let mut hits = std::mem::take(&mut self.hits);
         // A hit list never holds more than every point.
         for list in &mut hits {
@@ -480,20 +485,20 @@ impl DenseGrid {
                     self.first(middle + 3) - self.first(middle - 2)
                 })
                 .sum();
-            // Below min_points no point here can be core; the walk still lists their
-            // neighbours, for the border test.
-            let limit = if reach < min_points {
-                usize::MAX
-            } else {
-                min_points
-            };
+            if reach < min_points {
+                // No point here can be core. Few are border points: only those with a
+                // core cell in reach, and that is known only once every core point
+                // is (`label_border_points`).
+                self.lonely_cells.push(k as u32);
+                continue;
+            }
             for pos in begin..end {
                 if group.len == GROUP || (group.len > 0 && c - group.cell[0] > GROUP_SPAN_CELLS) {
                     self.test_group(&group, eps2, min_points, &mut hits);
                     group.len = 0;
                 }
                 (group.pos[group.len], group.cell[group.len]) = (pos, c);
-                group.limit[group.len] = limit;
+                group.limit[group.len] = min_points;
                 group.len += 1;
             }
         }
@@ -754,8 +759,9 @@ impl DenseGrid {
     }
 
     /// Gives each non-core point the lowest cluster number among the core points within
-    /// eps of it (its list from `find_core_points`).
-    fn label_border_points(&self, labels: &mut [Option<u32>]) {
+    /// eps of it: from its list (`find_core_points`), or for the points of cells too
+    /// sparse to have been tested, by a walk when a core cell is in reach.
+    fn label_border_points(&mut self, eps2: f64, labels: &mut [Option<u32>]) {
         for &(point, start, end) in &self.non_core {
             let best = self.neighbours[start as usize..end as usize]
                 .iter()
@@ -766,5 +772,40 @@ impl DenseGrid {
                 labels[point as usize] = best;
             }
         }
+        let mut hits = std::mem::take(&mut self.hits);
+        for &k in &self.lonely_cells {
+            let c = self.cells[k as usize] as usize;
+            let core_in_reach = self.rows.iter().any(|row| {
+                let middle = c.wrapping_add_signed(row.middle);
+                self.marks[middle - 2..middle + 3]
+                    .iter()
+                    .any(|&m| m != NONE)
+            });
+            if !core_in_reach {
+                continue;
+            }
+            let (begin, end) = (self.first(c), self.first(c + 1));
+            for start in (begin..end).step_by(GROUP) {
+                let mut group = Group::default();
+                for pos in start..(start + GROUP).min(end) {
+                    (group.pos[group.len], group.cell[group.len]) = (pos, c);
+                    group.limit[group.len] = usize::MAX;
+                    group.len += 1;
+                }
+                let counts = self.walk_group(&group, eps2, &mut hits);
+                for i in 0..group.len {
+                    let best = hits[i][..counts[i]]
+                        .iter()
+                        .map(|&q| self.index[q as usize] as usize)
+                        .filter(|&q| self.core_point[q])
+                        .filter_map(|q| labels[q])
+                        .min();
+                    if best.is_some() {
+                        labels[self.index[group.pos[i]] as usize] = best;
+                    }
+                }
+            }
+        }
+        self.hits = hits;
     }
 }
