@@ -56,6 +56,32 @@ pub fn body_rates_at(samples: &[AttitudeSample], t_us: i64) -> Option<Vector3<f6
     Some(a.body_rates_rad_s() * (1.0 - w) + b.body_rates_rad_s() * w)
 }
 
+/// Mean body rates over `from_us..to_us`, rad/s: the integral of the rates that
+/// `body_rates_at` interpolates, over the span's length. An empty or reversed span
+/// gives the rates at `to_us`.
+pub fn mean_body_rates(
+    samples: &[AttitudeSample],
+    from_us: i64,
+    to_us: i64,
+) -> Option<Vector3<f64>> {
+    let at_end = body_rates_at(samples, to_us)?;
+    if to_us <= from_us {
+        return Some(at_end);
+    }
+    let mut t = from_us;
+    let mut rates = body_rates_at(samples, from_us)?;
+    let mut integral = Vector3::zeros();
+    // Piecewise linear between samples: the trapezoid is exact on each piece.
+    let first_after = samples.partition_point(|s| s.t_us <= from_us);
+    for s in samples[first_after..].iter().take_while(|s| s.t_us < to_us) {
+        let next = s.body_rates_rad_s();
+        integral += (rates + next) * (0.5 * (s.t_us - t) as f64);
+        (t, rates) = (s.t_us, next);
+    }
+    integral += (rates + at_end) * (0.5 * (to_us - t) as f64);
+    Some(integral / (to_us - from_us) as f64)
+}
+
 /// Recent attitude samples on the daemon clock: the live daemon shares one with its pipeline
 /// thread, and the replay of its recordings fills one the same way.
 #[derive(Debug, Default)]
@@ -128,6 +154,22 @@ mod tests {
         assert_eq!(body_rates_at(&s, -10).unwrap().z, 0.0);
         assert_eq!(body_rates_at(&s, 9000).unwrap().z, -1.0);
         assert!(body_rates_at(&[], 0).is_none());
+    }
+
+    #[test]
+    fn mean_rates_integrate_the_interpolated_rates() {
+        let s = [sample(0, 0.0), sample(1000, 1.0), sample(3000, -1.0)];
+        let mean = |a, b| mean_body_rates(&s, a, b).unwrap().z;
+        // 0..1000 ramps 0 to 1; 1000..3000 ramps 1 to -1: both average 0.5 and 0.
+        assert!((mean(0, 1000) - 0.5).abs() < 1e-12);
+        assert!((mean(1000, 3000) - 0.0).abs() < 1e-12);
+        // 500..2000: 0.75 over 500 us, then 0.5 over 1000 us.
+        assert!((mean(500, 2000) - (0.75 * 500.0 + 0.5 * 1000.0) / 1500.0).abs() < 1e-12);
+        // Held before the first and after the last sample, as `body_rates_at` does.
+        assert!((mean(-1000, 0) - 0.0).abs() < 1e-12);
+        assert!((mean(3000, 5000) + 1.0).abs() < 1e-12);
+        assert_eq!(mean(2000, 2000), body_rates_at(&s, 2000).unwrap().z);
+        assert!(mean_body_rates(&[], 0, 10).is_none());
     }
 
     fn at(t_us: i64) -> AttitudeSample {

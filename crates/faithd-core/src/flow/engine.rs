@@ -167,7 +167,7 @@ impl Engine {
             return None;
         };
         let Rejection { ss, kept, near } = reject_outliers(&initial, points, subset, config);
-        let (fit, fit_ss) = if kept < n {
+        let (fit, fit_ss, fit_time_sum_us) = if kept < n {
             if kept < config.min_points {
                 stats.too_few_points += 1;
                 return None;
@@ -185,9 +185,9 @@ impl Engine {
                 stats.bad_fit += 1;
                 return None;
             };
-            (refit, refit.residual_squares(kept_points))
+            (refit, refit.residual_squares(kept_points), kt)
         } else {
-            (initial, ss)
+            (initial, ss, sums.2)
         };
         if fit.rms_us(fit_ss) > config.max_rms_us
             || fit.gradient_rel_error(fit_ss) > config.max_gradient_rel_error
@@ -241,6 +241,7 @@ impl Engine {
         }
         Some(FlowVector {
             tight,
+            fit_age_us: (-fit_time_sum_us / fit.points() as f64) as f32,
             ..FlowVector::new(e.t_us, x as f64, y as f64, u, v)
         })
     }

@@ -95,6 +95,12 @@ impl Plane {
         })
     }
 
+    /// Points the plane was fitted to.
+    #[inline(always)]
+    pub fn points(&self) -> usize {
+        self.points
+    }
+
     /// How far a point's time lies from the plane, microseconds.
     #[inline(always)]
     pub fn residual_us(&self, (x, y, t): (f64, f64, f64)) -> f64 {

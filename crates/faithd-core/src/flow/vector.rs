@@ -14,6 +14,12 @@ pub struct FlowVector {
     /// The event's neighbourhood also holds a plane without the stale pixels (see
     /// `FlowConfig::tight_residual_us`): its direction can be trusted for the FOE.
     pub tight: bool,
+    /// Mean age of the points the plane was fitted to, relative to `t_us`, in
+    /// microseconds (0 when unknown). The flow is the edge's motion averaged over
+    /// those points' times, which are centred this long before the event: near the
+    /// FOE, where edges are slow, tens of milliseconds. Derotation subtracts the
+    /// rotation of that same span.
+    pub fit_age_us: f32,
 }
 
 impl FlowVector {
@@ -25,6 +31,7 @@ impl FlowVector {
             u_px_s,
             v_px_s,
             tight: true,
+            fit_age_us: 0.0,
         }
     }
 
