@@ -80,7 +80,8 @@ pub fn rotational_flow_px_s(
     (u * camera.fx_px, v * camera.fy_px)
 }
 
-/// Derotates flow vectors with body rates interpolated at each vector's time.
+/// Derotates flow vectors with the body rates averaged over the time each vector's plane
+/// fit spans (`fit_span_rates`).
 pub struct Derotator {
     camera: CameraIntrinsics,
     mounting: Mounting,
