@@ -209,6 +209,38 @@ mod tests {
         assert!(restored > 250, "{restored}");
     }
 
+    /// A vector whose fit spans the last 40 ms loses the mean yaw of those 40 ms; one
+    /// without a known age, the yaw at its instant.
+    #[test]
+    fn a_fit_is_derotated_with_the_rates_of_its_span() {
+        let cam = CameraIntrinsics::dvs240();
+        let der = Derotator::new(cam, DerotationConfig::default());
+        // Yaw rate ramps from 0 at t = 0 to 1 rad/s at t = 100 ms.
+        let yaw = |t_us: i64| AttitudeSample {
+            t_us,
+            yaw_rate_rad_s: t_us as f64 * 1e-5,
+            ..Default::default()
+        };
+        let attitude = [yaw(0), yaw(100_000)];
+        let aged = FlowVector {
+            fit_age_us: 20_000.0,
+            ..FlowVector::new(100_000, 60.0, 90.0, -400.0, 0.0)
+        };
+        let fresh = FlowVector::new(100_000, 60.0, 90.0, -400.0, 0.0);
+        let mut flow = vec![aged, fresh];
+        assert!(der.derotate_all(&mut flow, &attitude).applied);
+        // The mean of the ramp over 60..100 ms is 0.8 rad/s; at 100 ms it is 1.
+        let span = der.derotate(&aged, Vector3::new(0.0, 0.0, 0.8)).unwrap();
+        let instant = der.derotate(&fresh, Vector3::new(0.0, 0.0, 1.0)).unwrap();
+        assert!((flow[0].u_px_s - span.u_px_s).abs() < 1e-9, "{:?}", flow[0]);
+        assert!(
+            (flow[1].u_px_s - instant.u_px_s).abs() < 1e-9,
+            "{:?}",
+            flow[1]
+        );
+        assert!((span.u_px_s - instant.u_px_s).abs() > 10.0);
+    }
+
     #[test]
     fn no_attitude_means_not_applied() {
         let cam = CameraIntrinsics::dvs240();
