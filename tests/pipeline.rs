@@ -70,6 +70,7 @@ fn flow_of_looming_edges_matches_the_closed_form() {
     flow.process(&events, &mut vectors);
     assert!(vectors.len() > 2_000, "{} vectors", vectors.len());
     let (mut away, mut ttc_ok, mut checked) = (0, 0, 0);
+    let mut ttc_rel_errors = Vec::new();
     for v in &vectors {
         let (rx, ry) = (v.x_px - 110.0, v.y_px - 95.0);
         if rx.hypot(ry) < 15.0 {
@@ -80,17 +81,24 @@ fn flow_of_looming_edges_matches_the_closed_form() {
         if along > 0.0 {
             away += 1;
         }
-        let ttc = faithd_core::ttc::ttc_s(v, (110.0, 95.0), &Default::default());
+        let ttc = faithd_core::ttc::ttc_at_s(v, (110.0, 95.0), v.t_us, &Default::default());
         let truth_s = 2.0 - v.t_us as f64 * 1e-6;
         if ttc.is_some_and(|t| (t - truth_s).abs() < 0.15 * truth_s) {
             ttc_ok += 1;
         }
+        ttc_rel_errors.extend(ttc.map(|t| (t - truth_s).abs() / truth_s));
     }
     let away_frac = away as f64 / checked as f64;
     let ttc_frac = ttc_ok as f64 / checked as f64;
+    eprintln!("DBG ttc_frac {ttc_frac}");
     // Up to 5 % go astray where a patch mixes the events of two crossing edges.
     assert!(away_frac > 0.93, "only {away_frac} point away from the FOE");
     assert!(ttc_frac > 0.8, "only {ttc_frac} have TTC within 15 %");
+    // The fit's lag taken off, the median error is 0.3 % (3.8 % without: the distance
+    // over a speed measured 20 to 60 ms earlier).
+    ttc_rel_errors.sort_by(f64::total_cmp);
+    let median = ttc_rel_errors[ttc_rel_errors.len() / 2];
+    assert!(median < 0.01, "median TTC error {median}");
 }
 
 #[test]
@@ -152,8 +160,11 @@ fn pole_ahead_is_avoided_toward_open_space() {
     }
     ttc_rel_errors.sort_by(f64::total_cmp);
     let median = ttc_rel_errors[ttc_rel_errors.len() / 2];
+    eprintln!("DBG median {median} n {}", ttc_rel_errors.len());
+    // Measured: 3.8 % (9.6 % before the fit's lag and the vectors' age were taken off
+    // the TTC).
     assert!(
-        median < 0.3,
+        median < 0.06,
         "median TTC error {median}: {ttc_rel_errors:?}"
     );
 }

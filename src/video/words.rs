@@ -42,10 +42,10 @@ pub fn reason(reason: &Reason) -> String {
             "nothing in the way: no obstacle-like cluster around the FOE".into()
         }
         Reason::ObstacleFar { ttc_s, threshold_s } => {
-            format!("obstacle ahead, {ttc_s:.2} s away: not yet under {threshold_s:.1} s")
+            format!("obstacle ahead, {ttc_s:.2} s away: not yet under {threshold_s:.2} s")
         }
         Reason::ObstacleAhead { ttc_s, threshold_s } => {
-            format!("obstacle ahead, {ttc_s:.2} s away: under {threshold_s:.1} s")
+            format!("obstacle ahead, {ttc_s:.2} s away: under {threshold_s:.2} s")
         }
         Reason::Unconfirmed {
             ttc_s,
@@ -160,13 +160,13 @@ mod tests {
             },
             Reason::ObstacleAhead {
                 ttc_s: 1.084,
-                threshold_s: 2.0,
+                threshold_s: 1.85,
             },
         );
         assert_eq!(headline(&d), "ROLL RIGHT 1.5 s");
         assert_eq!(
             reason(&d.reason),
-            "obstacle ahead, 1.08 s away: under 2.0 s"
+            "obstacle ahead, 1.08 s away: under 1.85 s"
         );
     }
 

@@ -22,7 +22,7 @@ use crate::foe::{
     Faith, FaithConfig, FoeEstimate, FoeEstimator, FoeMethod, HalfPlaneMap, HalfPlaneMapConfig,
     Nesw, VecIntersections, VecIntersectionsConfig,
 };
-use crate::ttc::{TtcConfig, ttc_s};
+use crate::ttc::{TtcConfig, ttc_at_s};
 
 /// Every tunable of the core, as it appears under `[pipeline]` in faithd.toml.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -251,7 +251,7 @@ impl Pipeline {
             flow: NormalFlow::new(&cam, config.flow),
             derotator: Derotator::new(cam, config.derotation),
             estimator,
-            dbscan: Dbscan::new(config.cluster),
+            dbscan: Dbscan::with_capacity(config.cluster, config.max_vectors),
             fresh: Vec::with_capacity(config.max_vectors),
             history: Vec::with_capacity(2 * config.max_vectors),
             foe_input: Vec::with_capacity(config.max_vectors),
@@ -347,7 +347,7 @@ impl Pipeline {
         let foe = self.smooth(raw_foe);
         timings.foe_ns = lap(clock);
 
-        self.compute_ttc(&foe);
+        self.compute_ttc(&foe, window_end_us);
         timings.ttc_ns = lap(clock);
 
         self.cluster();
@@ -444,14 +444,15 @@ impl Pipeline {
         self.history.drain(..stale + over);
     }
 
-    fn compute_ttc(&mut self, foe: &FoeEstimate) {
+    /// Every history vector's TTC at the end of the window.
+    fn compute_ttc(&mut self, foe: &FoeEstimate, window_end_us: i64) {
         self.ttc.clear();
         match foe.point() {
-            Some(foe_px) => self.ttc.extend(
-                self.history
-                    .iter()
-                    .map(|v| ttc_s(v, foe_px, &self.config.ttc).unwrap_or(f64::NAN)),
-            ),
+            Some(foe_px) => {
+                self.ttc.extend(self.history.iter().map(|v| {
+                    ttc_at_s(v, foe_px, window_end_us, &self.config.ttc).unwrap_or(f64::NAN)
+                }))
+            }
             None => self.ttc.resize(self.history.len(), f64::NAN),
         }
     }

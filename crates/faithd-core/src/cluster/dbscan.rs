@@ -67,6 +67,18 @@ impl Dbscan {
         }
     }
 
+    /// Ready for up to `points` points without allocating on the dense grid (the
+    /// pipeline's `max_vectors`): only a spread over more grid cells than before grows
+    /// its buffers, and the sparse grid, for inputs spread over millions of cells,
+    /// sizes itself as it goes.
+    pub fn with_capacity(config: DbscanConfig, points: usize) -> Self {
+        Self {
+            config,
+            dense: DenseGrid::with_capacity(points, config.min_points.max(1)),
+            sparse: SortedGrid::default(),
+        }
+    }
+
     /// Clusters `points`; `labels[i]` becomes the cluster of point i (numbered 0.. in
     /// order of discovery) or `None` for noise. Returns the number of clusters.
     /// Points with a non-finite coordinate are noise.

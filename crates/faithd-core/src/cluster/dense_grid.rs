@@ -173,6 +173,40 @@ pub(super) struct DenseGrid {
 }
 
 impl DenseGrid {
+    /// A grid whose buffers hold `points` points from the start: an input of up to
+    /// that many allocates only when it spreads over more cells than any before (the
+    /// buffers indexed by grid cell), whatever its layout otherwise.
+    pub(super) fn with_capacity(points: usize, min_points: usize) -> Self {
+        let mut grid = Self::default();
+        for axis in &mut grid.axis {
+            axis.reserve(points);
+        }
+        for frac in &mut grid.frac {
+            frac.reserve(points);
+        }
+        grid.cell_of_point.reserve(points);
+        grid.core_point.reserve(points);
+        grid.distinct.reserve(points);
+        grid.xs.reserve(points);
+        grid.ys.reserve(points);
+        grid.zs.reserve(points);
+        grid.fracs.reserve(points);
+        grid.index.reserve(points);
+        grid.non_core.reserve(points);
+        grid.neighbours
+            .reserve(points.saturating_mul(min_points.saturating_sub(1)));
+        for hits in &mut grid.hits {
+            hits.reserve(points);
+        }
+        // At most one occupied cell per point.
+        grid.cells.reserve(points);
+        grid.core_count.reserve(points);
+        grid.parent.reserve(points);
+        grid.cluster.reserve(points);
+        grid.lonely_cells.reserve(points);
+        grid
+    }
+
     /// Clusters `points` into `labels` (already `None`, one per point) and returns the
     /// number of clusters, or `None` (labels untouched) when the input is not for this
     /// grid.
@@ -457,6 +491,13 @@ impl DenseGrid {
         self.core_point.resize(self.cell_of_point.len(), false);
         self.non_core.clear();
         self.neighbours.clear();
+        // Sized for the worst case (every point not core, each with min_points - 1
+        // neighbours), so that they grow with the number of points only, like the
+        // other per-point buffers, and not with how the points lie.
+        let points = self.cell_of_point.len();
+        self.non_core.reserve(points);
+        self.neighbours
+            .reserve(points.saturating_mul(min_points.saturating_sub(1)));
         self.lonely_cells.clear();
         let mut hits = std::mem::take(&mut self.hits);
         // A hit list never holds more than every point.
