@@ -60,11 +60,7 @@ pub struct Dbscan {
 
 impl Dbscan {
     pub fn new(config: DbscanConfig) -> Self {
-        Self {
-            config,
-            dense: DenseGrid::default(),
-            sparse: SortedGrid::default(),
-        }
+        Self::with_capacity(config, 0)
     }
 
     /// Ready for up to `points` points without allocating on the dense grid (the

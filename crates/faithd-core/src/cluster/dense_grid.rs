@@ -491,13 +491,6 @@ impl DenseGrid {
         self.core_point.resize(self.cell_of_point.len(), false);
         self.non_core.clear();
         self.neighbours.clear();
-        // Sized for the worst case (every point not core, each with min_points - 1
-        // neighbours), so that they grow with the number of points only, like the
-        // other per-point buffers, and not with how the points lie.
-        let points = self.cell_of_point.len();
-        self.non_core.reserve(points);
-        self.neighbours
-            .reserve(points.saturating_mul(min_points.saturating_sub(1)));
         self.lonely_cells.clear();
         let mut hits = std::mem::take(&mut self.hits);
         // A hit list never holds more than every point.
