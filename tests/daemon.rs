@@ -709,7 +709,7 @@ fn a_journal_that_stops_reading_never_holds_up_a_roll() {
     std::fs::write(
         &config,
         format!(
-            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nfirst_approach_us = 600000\nrepeat_us = 3000000\n[record]\nenabled = false\n",
+            "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\nfirst_approach_us = 1000000\nrepeat_us = 3000000\n[record]\nenabled = false\n",
             mock.slave_path.display(),
             mock.command_toml()
         ),

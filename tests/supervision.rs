@@ -20,7 +20,7 @@ use faithd::supervise;
 fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault() {
     supervise::install_panic_hook();
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
-    let (config, endpoint, msp_endpoint) = mock.serve_config("first_approach_us = 600000\n");
+    let (config, endpoint, msp_endpoint) = mock.serve_config("first_approach_us = 1000000\n");
     // The camera thread forwards the simulated camera until told to panic.
     let panic_now = Arc::new(AtomicBool::new(false));
     let SourceConfig::Sim(source_config) = config.source.clone() else {

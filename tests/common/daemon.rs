@@ -31,12 +31,15 @@ impl Daemon {
         )
     }
 
-    /// As [`Daemon::start`], with extra environment variables.
+    /// As [`Daemon::start`], with extra environment variables. The simulated camera's
+    /// first approach starts at 1 s, after the roll stream's 800 ms warm-up: its roll
+    /// calls come 0.1 to 0.35 s into the approach, and at 0.6 s they could end before
+    /// the gate may open.
     pub fn start_with_env(endpoint: &str, extra: &str, env: &[(&str, &str)]) -> Self {
         Self::start_config(
             &format!(
                 "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
-                 [source]\nkind = \"sim\"\nfirst_approach_us = 600000\nrepeat_us = 4000000\n{extra}"
+                 [source]\nkind = \"sim\"\nfirst_approach_us = 1000000\nrepeat_us = 4000000\n{extra}"
             ),
             env,
         )
