@@ -138,10 +138,10 @@ fn a_full_card_a_pulled_camera_and_a_kill_lose_nothing_written_before() {
         "faithd ended:\n{}",
         log()
     );
-    // SIGSTOP, then SIGKILL: the kill lands between two writes, as the record being
-    // written at the very moment of a kill is the fault's, not what came before it
-    // (a write cut by SIGKILL can leave a torn last record; replay skips a torn last
-    // window line).
+    // SIGSTOP, then SIGKILL: the kill lands between two system calls. With the card
+    // full, every record is refused by its reservation before a byte of it is
+    // written, so no moment leaves a torn record (before reservations, one run in
+    // CI was killed between a short write and its cut back: a partial last line).
     let pid = nix::unistd::Pid::from_raw(child.id() as i32);
     nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGSTOP).unwrap();
     std::thread::sleep(Duration::from_millis(50));

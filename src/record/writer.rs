@@ -1,9 +1,13 @@
 //! The recorder thread: three streams of files (events, MAVLink, windows), each
 //! rotating at `max_file_bytes`, all inside the disk budget.
 //!
-//! Every write puts whole records on disk or none: a write that fails halfway (a full
-//! card) is cut back to the last whole record, so what was written before the fault
-//! always reads back, and a full card never deletes it. Nothing here ends the
+//! Every write puts whole records on disk or none. The room for a record is reserved
+//! on the card first (`fallocate`, keeping the file's size), so a full card refuses
+//! the record before any of it is written: a process killed at any moment leaves
+//! whole records only. Where the filesystem cannot reserve (exFAT), a write that fails
+//! halfway is cut back to the last whole record, and a kill between the two leaves a
+//! torn last record (said once in the log). What was written before a fault always
+//! reads back, and a full card never deletes it. Nothing here ends the
 //! recording: a bad event is skipped, an item that finds no room is dropped, a file
 //! that cannot be opened is tried again with the next item; each is counted and
 //! reported.
@@ -100,6 +104,9 @@ struct OpenFile {
 struct EventFile {
     name: String,
     writer: Aedat4Writer<File>,
+    /// The end of the room reserved so far: a packet's reservation is a bound, and
+    /// what the last one did not use is given back when the file closes.
+    reserved_to_bytes: u64,
 }
 
 struct Recording<'a> {
@@ -116,6 +123,9 @@ struct Recording<'a> {
     windows: RawStream,
     record: Vec<u8>,
     good: Vec<Event>,
+    /// Whether the card's filesystem reserves room (`fallocate`); false after its
+    /// first refusal.
+    can_reserve: bool,
     /// The last error logged and when: repeats are counted, not logged each time.
     last_error: Option<(String, Instant)>,
 }
@@ -156,6 +166,7 @@ impl<'a> Recording<'a> {
             },
             record: Vec::with_capacity(512),
             good: Vec::new(),
+            can_reserve: true,
             last_error: None,
         }
     }
@@ -284,6 +295,14 @@ impl<'a> Recording<'a> {
         self.make_room(bound_bytes)?;
         let file = self.events.as_mut().expect("opened above");
         let before = file.writer.written_bytes();
+        let reserved = reserve(
+            &mut self.can_reserve,
+            file.writer.get_mut(),
+            before,
+            bound_bytes,
+        );
+        reserved.map_err(|e| Loss::NoSpace(format!("{}: {e}", file.name)))?;
+        file.reserved_to_bytes = file.reserved_to_bytes.max(before + bound_bytes);
         let result = file.writer.write_events(&self.good);
         let after = file.writer.written_bytes();
         self.budget.wrote(after - before);
@@ -304,14 +323,19 @@ impl<'a> Recording<'a> {
 
     fn open_events(&mut self) -> Result<(), Loss> {
         self.make_room(4096)?;
-        self.events_part += 1;
-        let name = stem::file_name(&self.stem, self.events_part, ".aedat4");
+        let part = self.events_part + 1;
+        let name = stem::file_name(&self.stem, part, ".aedat4");
         let path = self.dir.join(&name);
-        let file = create_new(&path)?;
+        let file = create_new(&path, 4096, &mut self.can_reserve)?;
+        self.events_part = part;
         match Aedat4Writer::new(file, self.aedat.clone()) {
             Ok(writer) => {
                 self.budget.wrote(writer.written_bytes());
-                self.events = Some(EventFile { name, writer });
+                self.events = Some(EventFile {
+                    name,
+                    writer,
+                    reserved_to_bytes: 4096,
+                });
                 Ok(())
             }
             Err(e) => {
@@ -328,8 +352,10 @@ impl<'a> Recording<'a> {
 
     fn close_events(&mut self) {
         if let Some(file) = self.events.take() {
+            let reserved_to_bytes = file.reserved_to_bytes;
             match file.writer.finish() {
                 Ok(f) => {
+                    unreserve_after(&f, reserved_to_bytes);
                     let _ = f.sync_data();
                 }
                 Err(e) => tracing::error!("closing {}: {e}", file.name),
@@ -370,13 +396,21 @@ impl<'a> Recording<'a> {
     fn open_raw(&mut self, kind: StreamKind, first_record_bytes: u64) -> Result<(), Loss> {
         let header_bytes = self.stream(kind).header.as_ref().map_or(0, Vec::len) as u64;
         self.make_room(header_bytes + first_record_bytes)?;
-        let stem = self.stem.clone();
-        let dir = self.dir.clone();
+        let (part, ext) = {
+            let stream = self.stream(kind);
+            (stream.part + 1, stream.ext)
+        };
+        let name = stem::file_name(&self.stem, part, ext);
+        let path = self.dir.join(&name);
+        let file = create_new(
+            &path,
+            header_bytes + first_record_bytes,
+            &mut self.can_reserve,
+        )?;
         let stream = self.stream(kind);
-        stream.part += 1;
-        let name = stem::file_name(&stem, stream.part, stream.ext);
-        let path = dir.join(&name);
-        let file = create_new(&path)?;
+        // A part number is used once a file of it exists: a card that refuses
+        // files leaves no gaps in the numbering.
+        stream.part = part;
         stream.open = Some(OpenFile {
             name,
             file,
@@ -398,11 +432,14 @@ impl<'a> Recording<'a> {
     /// A full card drops the record rather than delete anything: what was recorded
     /// before the fault is kept (only `max_total_bytes` deletes, oldest first).
     fn write_record(&mut self, kind: StreamKind, record: &[u8]) -> Result<(), Loss> {
-        let open = self
-            .stream(kind)
-            .open
-            .as_mut()
-            .expect("opened by the caller");
+        let stream = match kind {
+            StreamKind::Tlog => &mut self.tlog,
+            StreamKind::Windows => &mut self.windows,
+        };
+        let open = stream.open.as_mut().expect("opened by the caller");
+        let len = record.len() as u64;
+        reserve(&mut self.can_reserve, &open.file, open.bytes, len)
+            .map_err(|e| Loss::NoSpace(format!("{}: {e}", open.name)))?;
         match open.file.write_all(record) {
             Ok(()) => {
                 open.bytes += record.len() as u64;
@@ -450,20 +487,98 @@ enum StreamKind {
     Windows,
 }
 
-/// Creates a file that must not exist yet: an earlier flight is never truncated.
-fn create_new(path: &std::path::Path) -> Result<File, Loss> {
-    File::options()
+/// Creates a file that must not exist yet (an earlier flight is never truncated),
+/// with room reserved for its first `first_bytes`.
+///
+/// A card without that room gets no file: an empty or headless file left by a kill
+/// between creating it and removing it again would be a recording no tool reads, and
+/// on a full card the open is tried again with every item.
+fn create_new(
+    path: &std::path::Path,
+    first_bytes: u64,
+    can_reserve: &mut bool,
+) -> Result<File, Loss> {
+    let no_space = |why: String| Loss::NoSpace(format!("{}: {why}", path.display()));
+    if let Some(dir) = path.parent()
+        && let Ok(card) = nix::sys::statvfs::statvfs(dir)
+    {
+        // The casts widen on 32-bit boards, where the block size is 32 bits.
+        #[allow(clippy::unnecessary_cast)]
+        let block_bytes = card.fragment_size() as u64;
+        #[allow(clippy::unnecessary_cast)]
+        let free_bytes = card.blocks_available() as u64 * block_bytes;
+        if free_bytes < first_bytes + block_bytes {
+            return Err(no_space(format!(
+                "not created: {free_bytes} bytes free on the card, {first_bytes} needed"
+            )));
+        }
+    }
+    let file = File::options()
         .write(true)
         .create_new(true)
         .open(path)
         .map_err(|e| {
-            let why = format!("{}: cannot create: {e}", path.display());
+            let why = format!("cannot create: {e}");
             if e.kind() == std::io::ErrorKind::StorageFull {
-                Loss::NoSpace(why)
+                no_space(why)
             } else {
-                Loss::Write(why)
+                Loss::Write(format!("{}: {why}", path.display()))
             }
-        })
+        })?;
+    if let Err(e) = reserve(can_reserve, &file, 0, first_bytes) {
+        let _ = std::fs::remove_file(path);
+        return Err(no_space(format!("not created: {e}")));
+    }
+    Ok(file)
+}
+
+/// Reserves `len_bytes` of the card at `at_bytes` in `file` without changing its size:
+/// `Err` (no room) means nothing of the record may be written. A filesystem that has
+/// no reservation is said once, and writes go on unreserved.
+fn reserve(
+    can_reserve: &mut bool,
+    file: &File,
+    at_bytes: u64,
+    len_bytes: u64,
+) -> Result<(), std::io::Error> {
+    use nix::fcntl::{FallocateFlags, fallocate};
+    if !*can_reserve || len_bytes == 0 {
+        return Ok(());
+    }
+    let (Ok(at), Ok(len)) = (i64::try_from(at_bytes), i64::try_from(len_bytes)) else {
+        return Ok(());
+    };
+    match fallocate(file, FallocateFlags::FALLOC_FL_KEEP_SIZE, at, len) {
+        Ok(()) => Ok(()),
+        Err(nix::errno::Errno::EOPNOTSUPP) => {
+            *can_reserve = false;
+            tracing::warn!(
+                "recording: the card's filesystem cannot reserve room for a record (fallocate); \
+                 a write that fails on a full card is cut back, but a kill at that moment can \
+                 leave a torn last record"
+            );
+            Ok(())
+        }
+        Err(errno) => Err(std::io::Error::from(errno)),
+    }
+}
+
+/// Gives back the room reserved past the end of a closed file (best effort: a
+/// filesystem without hole punching frees it when the file is released, or keeps
+/// it, at most one packet's bound).
+fn unreserve_after(file: &File, reserved_to_bytes: u64) {
+    use nix::fcntl::{FallocateFlags, fallocate};
+    let Ok(end) = file.metadata().map(|m| m.len()) else {
+        return;
+    };
+    if let (Ok(at), Ok(len)) = (
+        i64::try_from(end),
+        i64::try_from(reserved_to_bytes.saturating_sub(end)),
+    ) && len > 0
+    {
+        let punch = FallocateFlags::FALLOC_FL_PUNCH_HOLE | FallocateFlags::FALLOC_FL_KEEP_SIZE;
+        let _ = fallocate(file, punch, at, len);
+    }
 }
 
 /// Cuts a file back to `good_bytes` after a failed write; `Some(note)` when even
@@ -479,4 +594,88 @@ fn cut_back(file: &mut File, good_bytes: u64) -> Option<String> {
 
 fn is_storage_full(e: &SourceError) -> bool {
     matches!(e, SourceError::Io { source, .. } if source.kind() == std::io::ErrorKind::StorageFull)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::process::Command;
+
+    /// A tmpfs as a small SD card, unmounted on drop.
+    struct Card(tempfile::TempDir);
+
+    impl Card {
+        fn mount(size: &str) -> Self {
+            assert!(
+                nix::unistd::geteuid().is_root(),
+                "this test mounts a tmpfs as a full SD card: run it as root (CI does)"
+            );
+            let dir = tempfile::tempdir().unwrap();
+            let status = Command::new("mount")
+                .args(["-t", "tmpfs", "-o", &format!("size={size},mode=0700")])
+                .arg("faithd-test-card")
+                .arg(dir.path())
+                .status()
+                .expect("mount");
+            assert!(status.success(), "mount -t tmpfs failed");
+            Card(dir)
+        }
+    }
+
+    impl Drop for Card {
+        fn drop(&mut self) {
+            let _ = Command::new("umount").arg("-l").arg(self.0.path()).status();
+        }
+    }
+
+    #[test]
+    fn a_reserved_record_is_written_whole_on_a_full_card_and_one_without_room_is_refused() {
+        let card = Card::mount("64k");
+        let mut log = File::create(card.0.path().join("log")).unwrap();
+        let mut can_reserve = true;
+        reserve(&mut can_reserve, &log, 0, 5000).unwrap();
+        assert_eq!(
+            log.metadata().unwrap().len(),
+            0,
+            "the reservation kept the size"
+        );
+
+        // Another file takes every byte left.
+        let mut filler = File::create(card.0.path().join("filler")).unwrap();
+        let page = [7u8; 4096];
+        let full = loop {
+            if let Err(e) = filler.write_all(&page) {
+                break e;
+            }
+        };
+        assert_eq!(full.kind(), std::io::ErrorKind::StorageFull);
+
+        log.write_all(&[b'x'; 5000]).unwrap();
+        let refused = reserve(&mut can_reserve, &log, 5000, 5000).unwrap_err();
+        assert_eq!(refused.kind(), std::io::ErrorKind::StorageFull);
+        assert!(can_reserve, "tmpfs reserves");
+        assert_eq!(log.metadata().unwrap().len(), 5000);
+        assert_eq!(
+            std::fs::read(card.0.path().join("log")).unwrap(),
+            [b'x'; 5000]
+        );
+    }
+
+    #[test]
+    fn the_room_a_closed_file_did_not_use_is_given_back() {
+        use std::os::unix::fs::MetadataExt;
+        let card = Card::mount("1m");
+        let mut file = File::create(card.0.path().join("events")).unwrap();
+        let mut can_reserve = true;
+        reserve(&mut can_reserve, &file, 0, 256 * 1024).unwrap();
+        file.write_all(&[1u8; 100]).unwrap();
+        assert!(file.metadata().unwrap().blocks() * 512 >= 256 * 1024);
+        unreserve_after(&file, 256 * 1024);
+        let kept_bytes = file.metadata().unwrap().blocks() * 512;
+        assert!(kept_bytes <= 4096, "{kept_bytes} bytes still allocated");
+        assert_eq!(
+            std::fs::read(card.0.path().join("events")).unwrap(),
+            [1u8; 100]
+        );
+    }
 }
