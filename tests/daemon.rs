@@ -376,7 +376,17 @@ fn a_daemon_restarted_after_a_kill_mid_roll_releases_first() {
     // SIGKILL (the OOM killer, a watchdog kill): no release from this one.
     daemon.signal(Signal::SIGKILL);
     let killed = Instant::now();
-    let before = mock.msp.frames.lock().unwrap().len();
+    // The killed daemon's last frames may still be in the terminal's buffer: the
+    // restarted one's start when no frame has come for 100 ms.
+    let mut before = mock.msp.frames.lock().unwrap().len();
+    loop {
+        std::thread::sleep(Duration::from_millis(100));
+        let now = mock.msp.frames.lock().unwrap().len();
+        if now == before {
+            break;
+        }
+        before = now;
+    }
     let daemon = Daemon::start_mock(&mock, "");
     assert!(
         mock.msp

@@ -28,6 +28,12 @@ pub struct RateReport {
     pub windows: usize,
     pub events_per_window_p50: f64,
     pub events_per_window_p99: f64,
+    /// Median per window of what the stages got to work on: the flow's new vectors,
+    /// the vectors the FOE took (tight ones of the history) and DBSCAN's points. A
+    /// stage's low cost means little when it had nothing to do.
+    pub new_vectors_p50: f64,
+    pub foe_vectors_p50: f64,
+    pub clustered_p50: f64,
     /// Per stage (flow, derotation, FOE, TTC, clustering, decision) and the whole
     /// window: p50 and p99 microseconds of this machine's wall clock.
     pub stages_us: Vec<StageFigures>,
@@ -102,6 +108,7 @@ pub fn run(
     let (mut per_stage, mut totals, mut sizes) = (vec![Vec::new(); 6], Vec::new(), Vec::new());
     let (mut overruns, mut shed, mut max_level) = (0, 0, 0);
     let mut events_done = 0usize;
+    let mut work: [Vec<f64>; 3] = Default::default();
     while window_end_us <= end_us + daemon.period_us {
         let end = next + events[next..].partition_point(|e| e.t_us <= window_end_us);
         cycle.take(events[next..end].to_vec(), window_end_us, None);
@@ -109,6 +116,13 @@ pub fn run(
         events_done += end - next;
         next = end;
         let outcome = cycle.run_window(window_end_us, &attitude, &mut clock, false);
+        let w = outcome.work;
+        for (list, count) in work
+            .iter_mut()
+            .zip([w.new_vectors, w.foe_vectors, w.clustered])
+        {
+            list.push(count as f64);
+        }
         let t = outcome.timings;
         for (k, ns) in [
             t.flow_ns,
@@ -152,11 +166,18 @@ pub fn run(
         .collect();
     totals.sort_by(f64::total_cmp);
     sizes.sort_by(f64::total_cmp);
+    let [new_vectors_p50, foe_vectors_p50, clustered_p50] = work.map(|mut v| {
+        v.sort_by(f64::total_cmp);
+        quantile(&v, 0.5)
+    });
     RateReport {
         events_per_s: events.len() as f64 / ((end_us - start_us).max(1) as f64 * 1e-6),
         windows: totals.len(),
         events_per_window_p50: quantile(&sizes, 0.5),
         events_per_window_p99: quantile(&sizes, 0.99),
+        new_vectors_p50,
+        foe_vectors_p50,
+        clustered_p50,
         stages_us,
         window_us_p50: quantile(&totals, 0.5),
         window_us_p99: quantile(&totals, 0.99),
@@ -175,6 +196,9 @@ fn empty_report() -> RateReport {
         windows: 0,
         events_per_window_p50: 0.0,
         events_per_window_p99: 0.0,
+        new_vectors_p50: 0.0,
+        foe_vectors_p50: 0.0,
+        clustered_p50: 0.0,
         stages_us: Vec::new(),
         window_us_p50: 0.0,
         window_us_p99: 0.0,

@@ -762,6 +762,10 @@ pub fn bench_pipeline(args: &BenchPipelineArgs) -> Result<(), Failure> {
             r.events_per_window_p50,
             r.events_per_window_p99
         );
+        println!(
+            "    per window (p50): {:.0} new vectors, {:.0} taken by the FOE, {:.0} clustered",
+            r.new_vectors_p50, r.foe_vectors_p50, r.clustered_p50
+        );
         let stages: Vec<String> = r
             .stages_us
             .iter()

@@ -56,6 +56,19 @@ impl Scratch {
     }
 }
 
+/// Whether an event is among the one in `one_in` that a capped window fits: by a hash
+/// of the event, not its place in the window, so the choice is the same whichever
+/// tile or thread handles it, and spread evenly over the sensor and the window. Only
+/// events that pass the refractory filter are asked: at a high event rate most do
+/// not, and a cap that counted them would spend its fits on events never fitted.
+#[inline(always)]
+pub(super) fn chosen_for_fit(e: &Event, one_in: u32) -> bool {
+    let key = u64::from(e.x_px) | u64::from(e.y_px) << 16 | (e.t_us as u64) << 32;
+    let hash = key.wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 32;
+    // hash / 2^32 < 1 / one_in, without a division.
+    (hash * u64::from(one_in)) >> 32 == 0
+}
+
 /// What an event did to the surface.
 pub(super) enum Mark {
     OutOfView,
@@ -97,24 +110,26 @@ impl Engine {
         Mark::Marked(x, y)
     }
 
-    /// An event that is not fitted still marks its pixel, for its neighbours' fits.
-    #[inline(always)]
-    pub fn update_surface(&mut self, e: &Event, config: &FlowConfig) {
-        self.stats.events += 1;
-        match self.mark(e, config.refractory_us) {
-            Mark::OutOfView => self.stats.out_of_view += 1,
-            Mark::Refractory => self.stats.refractory += 1,
-            Mark::Marked(..) => self.stats.not_fitted += 1,
-        }
+    /// Markers of the events that pass the refractory filter (in view, marking their
+    /// pixel), whether fitted or not: what the fit cap of the next window is sized by.
+    pub fn marked(&self) -> u64 {
+        self.stats.events - self.stats.out_of_view - self.stats.refractory
     }
 
-    /// One event: update the surface, then try a plane fit around it.
+    /// One event: update the surface, then, if it marked its pixel and is among the
+    /// one in `fit_one_in` chosen (`chosen_for_fit`), try a plane fit around it. An
+    /// event not fitted still marks its pixel, for its neighbours' fits.
     #[inline(always)]
-    pub fn process_event(&mut self, e: &Event, config: &FlowConfig) -> Option<FlowVector> {
+    pub fn process_event(
+        &mut self,
+        e: &Event,
+        config: &FlowConfig,
+        fit_one_in: u32,
+    ) -> Option<FlowVector> {
         if config.window_us <= EXACT_SUM_WINDOW_US {
-            self.process_event_with::<true>(e, config)
+            self.process_event_with::<true>(e, config, fit_one_in)
         } else {
-            self.process_event_with::<false>(e, config)
+            self.process_event_with::<false>(e, config, fit_one_in)
         }
     }
 
@@ -136,6 +151,7 @@ impl Engine {
         &mut self,
         e: &Event,
         config: &FlowConfig,
+        fit_one_in: u32,
     ) -> Option<FlowVector> {
         self.stats.events += 1;
         let (x, y) = match self.mark(e, config.refractory_us) {
@@ -149,6 +165,10 @@ impl Engine {
             }
             Mark::Marked(x, y) => (x, y),
         };
+        if fit_one_in > 1 && !chosen_for_fit(e, fit_one_in) {
+            self.stats.not_fitted += 1;
+            return None;
+        }
         let Self {
             surface,
             scratch,

@@ -68,9 +68,10 @@ pub struct FlowConfig {
     pub min_speed_px_s: f64,
     /// Flow faster than this is rejected (steep fits from simultaneous events).
     pub max_speed_px_s: f64,
-    /// At most this many events of a window get a plane fit; in a busier window every
-    /// k-th event is fitted (k the smallest that keeps within the cap) and the others
-    /// only update the surface. Fits are the flow's cost, and an obstacle filling the
+    /// At most about this many events of a window get a plane fit; in a busier window
+    /// one in k of the events that pass the refractory filter is fitted (k sized from
+    /// the window before, see `NormalFlow::process_window`) and the others only
+    /// update the surface. Fits are the flow's cost, and an obstacle filling the
     /// view can bring 50 times a window's usual events: uncapped, that window would
     /// take tens of milliseconds exactly when the decision matters. The history keeps
     /// at most `pipeline.max_vectors` vectors anyway, so fitting them all would mostly
@@ -167,6 +168,8 @@ pub struct FlowStats {
 pub struct NormalFlow {
     config: FlowConfig,
     tiles: Tiles,
+    /// The last `process_window`'s events and how many passed the refractory filter.
+    last_window: Option<(u64, u64)>,
 }
 
 impl NormalFlow {
@@ -181,6 +184,7 @@ impl NormalFlow {
         Self {
             tiles: Tiles::new(camera.width_px, camera.height_px, config.radius_px, threads),
             config,
+            last_window: None,
         }
     }
 
@@ -211,6 +215,7 @@ impl NormalFlow {
     /// Forgets the surface, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
         self.tiles.clear();
+        self.last_window = None;
     }
 
     /// Processes events in order, appending one vector per event that yields a good fit.
@@ -218,17 +223,34 @@ impl NormalFlow {
         self.tiles.run(events, 1, &self.config, out);
     }
 
-    /// Processes one window's events with at most `max_fits` plane fits: every k-th
-    /// event is fitted, k the smallest stride that keeps within the cap, and every
-    /// event updates the surface. The same events give the same vectors.
+    /// Processes one window's events with about `max_fits` plane fits at most: one in
+    /// k of the events that pass the refractory filter is fitted (chosen by a hash of
+    /// the event), and every event updates the surface.
+    ///
+    /// k is sized before the window from its event count and the share of events that
+    /// passed the filter in the window before (all of them for the first): at a high
+    /// event rate most events are refractory, and a cap counting them would fit a few
+    /// of the events that pass and see next to nothing (at 8 Mev/s on the generated
+    /// streams, one vector a window). The same events give the same vectors.
     pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
-        let stride = events.len().div_ceil(max_fits.max(1)).max(1);
-        self.tiles.run(events, stride, &self.config, out);
+        let expected_marked = match self.last_window {
+            Some((events_before, marked_before)) if events_before > 0 => {
+                (events.len() as u64).saturating_mul(marked_before) / events_before
+            }
+            _ => events.len() as u64,
+        };
+        let fit_one_in = expected_marked
+            .div_ceil(max_fits.max(1) as u64)
+            .clamp(1, u64::from(u32::MAX)) as u32;
+        let marked_before = self.tiles.marked();
+        self.tiles.run(events, fit_one_in, &self.config, out);
+        let marked = self.tiles.marked().saturating_sub(marked_before);
+        self.last_window = Some((events.len() as u64, marked));
     }
 
     /// One event: update the surface, then try a plane fit around it.
     pub fn process_event(&mut self, e: &Event) -> Option<FlowVector> {
-        self.tiles.step(e, true, &self.config)
+        self.tiles.step(e, 1, &self.config)
     }
 }
 

@@ -85,35 +85,21 @@ struct Entry;
 
 impl Entry {
     const MARK: u32 = 1 << 31;
-    const FIT: u32 = 1 << 30;
-    const INDEX: u32 = Self::FIT - 1;
+    const INDEX: u32 = Self::MARK - 1;
 }
 
 /// Windows run on threads have fewer events than this: their indices fit an `Entry`.
 const MAX_THREADED_EVENTS: usize = Entry::INDEX as usize;
 
 impl Tile {
-    /// One window on this tile: its events processed (fitted at every `stride`-th
-    /// event of the window), its halo's marked, the others skipped.
-    fn run(&mut self, events: &[Event], stride: usize, config: &FlowConfig) {
-        if stride == 1 {
-            self.run_with::<true>(events, stride, config);
-        } else {
-            self.run_with::<false>(events, stride, config);
-        }
-    }
-
-    /// `run`, knowing whether every event is fitted (`ALL_FITTED`, a stride of 1).
+    /// One window on this tile: its events processed (one in `fit_one_in` of those
+    /// that mark their pixel fitted, see `chosen_for_fit`), its halo's marked, the
+    /// others skipped.
     ///
     /// First the tile's events are listed, without a branch on whose they are (every
     /// event is written, only the tile's kept): the columns of consecutive events are
     /// random, and that branch was mispredicted about every other event.
-    fn run_with<const ALL_FITTED: bool>(
-        &mut self,
-        events: &[Event],
-        stride: usize,
-        config: &FlowConfig,
-    ) {
+    fn run(&mut self, events: &[Event], fit_one_in: u32, config: &FlowConfig) {
         debug_assert!(events.len() <= MAX_THREADED_EVENTS);
         if self.entries.len() < events.len() {
             self.entries.resize(events.len(), 0);
@@ -121,20 +107,10 @@ impl Tile {
         let (roles, entries) = (&self.roles[..], &mut self.entries[..]);
         let last = roles.len() - 1;
         let mut n = 0;
-        let mut phase = 0;
         for (i, e) in events.iter().enumerate() {
             let column = usize::from(e.x_px).min(last);
             let role = roles[column];
-            let fit = ALL_FITTED || phase == 0;
-            if !ALL_FITTED {
-                phase += 1;
-                if phase == stride {
-                    phase = 0;
-                }
-            }
-            entries[n] = i as u32
-                | (Entry::MARK * u32::from(role == Role::Mark))
-                | (Entry::FIT * u32::from(fit));
+            entries[n] = i as u32 | (Entry::MARK * u32::from(role == Role::Mark));
             n += usize::from(role != Role::Skip);
         }
         self.found.clear();
@@ -144,12 +120,8 @@ impl Tile {
             let e = &events[i];
             if entry & Entry::MARK != 0 {
                 engine.mark(e, config.refractory_us);
-            } else if ALL_FITTED || entry & Entry::FIT != 0 {
-                if let Some(v) = engine.process_event(e, config) {
-                    self.found.push((i, v));
-                }
-            } else {
-                engine.update_surface(e, config);
+            } else if let Some(v) = engine.process_event(e, config, fit_one_in) {
+                self.found.push((i, v));
             }
         }
     }
@@ -255,62 +227,43 @@ impl Tiles {
         }
     }
 
-    /// Processes one window, fitting every `stride`-th event (the first included).
+    /// Processes one window, fitting one in `fit_one_in` of the events that mark their
+    /// pixel (all with 1).
     pub fn run(
         &mut self,
         events: &[Event],
-        stride: usize,
+        fit_one_in: u32,
         config: &FlowConfig,
         out: &mut Vec<FlowVector>,
     ) {
         if self.tiles.len() == 1 {
-            self.run_single(events, stride, config, out);
+            let engine = &mut self.tiles[0].engine;
+            for e in events {
+                if let Some(v) = engine.process_event(e, config, fit_one_in) {
+                    out.push(v);
+                }
+            }
         } else if events.len() >= self.parallel_min_events && events.len() <= MAX_THREADED_EVENTS {
             self.balance(events);
-            self.run_threads(events, stride, config, out);
+            self.run_threads(events, fit_one_in, config, out);
         } else {
-            for chunk in events.chunks(stride) {
-                for (k, e) in chunk.iter().enumerate() {
-                    if let Some(v) = self.step(e, k == 0, config) {
-                        out.push(v);
-                    }
+            for e in events {
+                if let Some(v) = self.step(e, fit_one_in, config) {
+                    out.push(v);
                 }
             }
         }
     }
 
-    /// The whole sensor on one tile: no dispatch.
-    fn run_single(
-        &mut self,
-        events: &[Event],
-        stride: usize,
-        config: &FlowConfig,
-        out: &mut Vec<FlowVector>,
-    ) {
-        let engine = &mut self.tiles[0].engine;
-        if stride == 1 {
-            for e in events {
-                if let Some(v) = engine.process_event(e, config) {
-                    out.push(v);
-                }
-            }
-            return;
-        }
-        for chunk in events.chunks(stride) {
-            if let Some((first, rest)) = chunk.split_first() {
-                if let Some(v) = engine.process_event(first, config) {
-                    out.push(v);
-                }
-                for e in rest {
-                    engine.update_surface(e, config);
-                }
-            }
-        }
+    /// Events that have marked their pixel (passed the refractory filter), summed over
+    /// the tiles since their counters were last taken.
+    pub fn marked(&self) -> u64 {
+        self.tiles.iter().map(|t| t.engine.marked()).sum()
     }
 
     /// One event on the calling thread: its owner processes it, tiles whose halo holds
     /// it mark it.
-    pub fn step(&mut self, e: &Event, fit: bool, config: &FlowConfig) -> Option<FlowVector> {
+    pub fn step(&mut self, e: &Event, fit_one_in: u32, config: &FlowConfig) -> Option<FlowVector> {
         let column = self.columns[usize::from(e.x_px).min(self.width_px)];
         let owner = usize::from(column.owner);
         if column.left_marks {
@@ -319,13 +272,9 @@ impl Tiles {
         if column.right_marks {
             self.tiles[owner + 1].engine.mark(e, config.refractory_us);
         }
-        let engine = &mut self.tiles[owner].engine;
-        if fit {
-            engine.process_event(e, config)
-        } else {
-            engine.update_surface(e, config);
-            None
-        }
+        self.tiles[owner]
+            .engine
+            .process_event(e, config, fit_one_in)
     }
 
     /// Each tile on its own thread (the first on the calling one), then the vectors
@@ -333,7 +282,7 @@ impl Tiles {
     fn run_threads(
         &mut self,
         events: &[Event],
-        stride: usize,
+        fit_one_in: u32,
         config: &FlowConfig,
         out: &mut Vec<FlowVector>,
     ) {
@@ -345,15 +294,15 @@ impl Tiles {
             for (t, tile) in others.iter_mut().enumerate() {
                 let spawned = std::thread::Builder::new()
                     .name("faithd-flow".into())
-                    .spawn_scoped(scope, move || tile.run(events, stride, config));
+                    .spawn_scoped(scope, move || tile.run(events, fit_one_in, config));
                 if spawned.is_err() {
                     refused.push(t + 1);
                 }
             }
-            first.run(events, stride, config);
+            first.run(events, fit_one_in, config);
         });
         for t in refused {
-            self.tiles[t].run(events, stride, config);
+            self.tiles[t].run(events, fit_one_in, config);
         }
         out.reserve(self.tiles.iter().map(|t| t.found.len()).sum());
         if let [a, b] = &self.tiles[..] {
@@ -381,8 +330,8 @@ impl Tiles {
     /// `events`, if that lowers the largest share by at least a tenth.
     ///
     /// The work is estimated from at most `BALANCE_SAMPLES` events spread over the
-    /// window, all weighing the same: the fitted events (one in `stride`) are spread
-    /// evenly over the window too. Counting every event costs about as much as
+    /// window, all weighing the same: the fitted events (chosen by a hash of each
+    /// event) are spread evenly over the window too. Counting every event costs about as much as
     /// updating the surface with it; counting in the threads' own pass over the window
     /// made that pass twice as slow.
     fn balance(&mut self, events: &[Event]) {
