@@ -90,7 +90,6 @@ fn flow_of_looming_edges_matches_the_closed_form() {
     }
     let away_frac = away as f64 / checked as f64;
     let ttc_frac = ttc_ok as f64 / checked as f64;
-    eprintln!("DBG ttc_frac {ttc_frac}");
     // Up to 5 % go astray where a patch mixes the events of two crossing edges.
     assert!(away_frac > 0.93, "only {away_frac} point away from the FOE");
     assert!(ttc_frac > 0.8, "only {ttc_frac} have TTC within 15 %");
@@ -158,13 +157,19 @@ fn pole_ahead_is_avoided_toward_open_space() {
         ttc_rel_errors.push((ttc_s - truth_s).abs() / truth_s);
         assert!(d.obstacle.is_some(), "{d}");
     }
+    // The first roll is the one that acts (the manoeuvre then runs its 1.5 s).
+    // Measured: 2.0 % (at a true TTC of 1.07 s).
+    assert!(ttc_rel_errors[0] < 0.05, "{ttc_rel_errors:?}");
     ttc_rel_errors.sort_by(f64::total_cmp);
     let median = ttc_rel_errors[ttc_rel_errors.len() / 2];
-    eprintln!("DBG median {median} n {}", ttc_rel_errors.len());
-    // Measured: 3.8 % (9.6 % before the fit's lag and the vectors' age were taken off
-    // the TTC).
+    // Measured: 10.8 %. The rolls go on to the end of the run (true TTC 0.7 s); up
+    // to a true TTC of 0.87 s they are within 4.6 %, after that the pole, 40 to 60
+    // px wide, is split into pieces by DBSCAN, and the piece the rule takes is the
+    // one at the FOE, whose flow is the slowest and its TTC the least certain (6 to
+    // 42 % off). Before the obstacle's expansion kept the term of slanted edges, the
+    // rule called the roll only up to a true TTC of 0.87 s, and this median was 3.8 %.
     assert!(
-        median < 0.06,
+        median < 0.15,
         "median TTC error {median}: {ttc_rel_errors:?}"
     );
 }

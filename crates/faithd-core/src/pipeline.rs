@@ -350,7 +350,7 @@ impl Pipeline {
         self.compute_ttc(&foe, window_end_us);
         timings.ttc_ns = lap(clock);
 
-        self.cluster();
+        self.cluster(foe.point());
         timings.cluster_ns = lap(clock);
 
         let decision = self.confirm(decide(
@@ -457,7 +457,9 @@ impl Pipeline {
         }
     }
 
-    fn cluster(&mut self) {
+    /// DBSCAN over the vectors with a TTC, and each cluster's statistics and own
+    /// expansion (about the FOE's row; the clusters need a TTC, so an FOE point).
+    fn cluster(&mut self, foe_px: Option<(f64, f64)>) {
         self.clustered.clear();
         self.xy_px.clear();
         self.ttc_clustered.clear();
@@ -493,7 +495,8 @@ impl Pipeline {
                 (c.min_x_px..=c.max_x_px).contains(&v.x_px)
                     && (c.min_y_px..=c.max_y_px).contains(&v.y_px)
             };
-            c.expansion = expansion(self.history.iter().filter(inside));
+            c.expansion = foe_px
+                .and_then(|(_, foe_y_px)| expansion(self.history.iter().filter(inside), foe_y_px));
         }
     }
 }
