@@ -110,7 +110,7 @@ impl Engine {
         Mark::Marked(x, y)
     }
 
-    /// Markers of the events that pass the refractory filter (in view, marking their
+    /// Events counted so far that passed the refractory filter (in view, marking their
     /// pixel), whether fitted or not: what the fit cap of the next window is sized by.
     pub fn marked(&self) -> u64 {
         self.stats.events - self.stats.out_of_view - self.stats.refractory
