@@ -126,15 +126,18 @@ impl Engine {
         config: &FlowConfig,
         fit_one_in: u32,
     ) -> Option<FlowVector> {
-        if config.window_us <= EXACT_SUM_WINDOW_US {
-            self.process_event_with::<true>(e, config, fit_one_in)
-        } else {
-            self.process_event_with::<false>(e, config, fit_one_in)
+        // Four copies, so that an uncapped window's events carry no test of the cap.
+        match (config.window_us <= EXACT_SUM_WINDOW_US, fit_one_in > 1) {
+            (true, false) => self.process_event_with::<true, false>(e, config, 1),
+            (true, true) => self.process_event_with::<true, true>(e, config, fit_one_in),
+            (false, false) => self.process_event_with::<false, false>(e, config, 1),
+            (false, true) => self.process_event_with::<false, true>(e, config, fit_one_in),
         }
     }
 
     /// `process_event`, with the sums of coordinates added as integers when
-    /// `INTEGER_SUMS` (see `EXACT_SUM_WINDOW_US`).
+    /// `INTEGER_SUMS` (see `EXACT_SUM_WINDOW_US`), and one in `fit_one_in` of the
+    /// events fitted when `CAPPED`.
     ///
     /// The arithmetic is that of `fit_plane` on the points the original per-event code
     /// gathered, in their order, so the vectors are the same to the bit; what changed
@@ -147,7 +150,7 @@ impl Engine {
     /// Whether a pixel is recent or a point kept depends on the data, so those loops
     /// have no branch on it: mispredicted, such branches cost more than the fits.
     #[inline(always)]
-    fn process_event_with<const INTEGER_SUMS: bool>(
+    fn process_event_with<const INTEGER_SUMS: bool, const CAPPED: bool>(
         &mut self,
         e: &Event,
         config: &FlowConfig,
@@ -165,7 +168,7 @@ impl Engine {
             }
             Mark::Marked(x, y) => (x, y),
         };
-        if fit_one_in > 1 && !chosen_for_fit(e, fit_one_in) {
+        if CAPPED && !chosen_for_fit(e, fit_one_in) {
             self.stats.not_fitted += 1;
             return None;
         }
