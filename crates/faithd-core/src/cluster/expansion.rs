@@ -46,26 +46,16 @@ pub struct Expansion {
 /// in its cluster: with the FOE misplaced, a pole's two edges get very different TTCs
 /// and land in different clusters, and one edge alone shows no expansion.
 pub fn expansion<'a>(
-    vectors: impl IntoIterator<Item = &'a FlowVector> + Clone,
+    vectors: impl IntoIterator<Item = &'a FlowVector>,
     foe_y_px: f64,
 ) -> Option<Expansion> {
-    // Columns are taken about their mean, so the sums do not cancel.
-    let (mut n, mut sum_x) = (0usize, 0.0);
-    for v in vectors.clone() {
-        if let Some((nx, _)) = v.direction()
-            && nx.abs() >= MIN_HORIZONTAL_NORMAL
-        {
-            n += 1;
-            sum_x += v.x_px;
-        }
-    }
-    if n < MIN_VECTORS {
-        return None;
-    }
-    let mean_x = sum_x / n as f64;
-    // speed = a * p + c * q with p = nx (x - mean_x) + ny (y - foe_y), q = nx,
-    // a = 1 / tau and c = (mean_x - centre_x) / tau.
-    let (mut spp, mut spq, mut sqq, mut sps, mut sqs, mut sxx) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    // speed = a * p + c * q with p = nx (x - x_ref) + ny (y - foe_y), q = nx,
+    // a = 1 / tau and c = (x_ref - centre_x) / tau. Columns are taken from the first
+    // counted vector's, so the sums do not cancel.
+    let mut x_ref = None;
+    let mut n = 0usize;
+    let (mut spp, mut spq, mut sqq, mut sps, mut sqs) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let (mut sx, mut sxx) = (0.0, 0.0);
     for v in vectors {
         let Some((nx, ny)) = v.direction() else {
             continue;
@@ -73,18 +63,26 @@ pub fn expansion<'a>(
         if nx.abs() < MIN_HORIZONTAL_NORMAL {
             continue;
         }
+        let x_ref = *x_ref.get_or_insert(v.x_px);
         let speed = v.u_px_s * nx + v.v_px_s * ny;
-        let dx = v.x_px - mean_x;
+        let dx = v.x_px - x_ref;
         let p = nx * dx + ny * (v.y_px - foe_y_px);
+        n += 1;
         spp += p * p;
         spq += p * nx;
         sqq += nx * nx;
         sps += p * speed;
         sqs += nx * speed;
+        sx += dx;
         sxx += dx * dx;
     }
+    let x_ref = x_ref?;
+    if n < MIN_VECTORS {
+        return None;
+    }
     // Vectors along one column give no slope.
-    if sxx / (n as f64) < 1.0 {
+    let nf = n as f64;
+    if sxx / nf - (sx / nf) * (sx / nf) < 1.0 {
         return None;
     }
     let det = spp * sqq - spq * spq;
@@ -97,7 +95,7 @@ pub fn expansion<'a>(
         return None;
     }
     Some(Expansion {
-        centre_x_px: mean_x - c / a,
+        centre_x_px: x_ref - c / a,
         ttc_s: 1.0 / a,
     })
 }

@@ -331,9 +331,9 @@ impl Tiles {
     ///
     /// The work is estimated from at most `BALANCE_SAMPLES` events spread over the
     /// window, all weighing the same: the fitted events (chosen by a hash of each
-    /// event) are spread evenly over the window too. Counting every event costs about as much as
-    /// updating the surface with it; counting in the threads' own pass over the window
-    /// made that pass twice as slow.
+    /// event) are spread evenly over the window too. Counting every event costs about
+    /// as much as updating the surface with it; counting in the threads' own pass over
+    /// the window made that pass twice as slow.
     fn balance(&mut self, events: &[Event]) {
         let step = events.len().div_ceil(BALANCE_SAMPLES).max(1);
         let mut work = std::mem::take(&mut self.work);
