@@ -110,6 +110,18 @@ impl Engine {
         Mark::Marked(x, y)
     }
 
+    /// Whether `e` would mark its pixel were it processed now: in view, and not within
+    /// the refractory time of the pixel's latest same-polarity event. Reads only.
+    #[inline(always)]
+    pub fn would_mark(&self, e: &Event, refractory_us: i64) -> bool {
+        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
+        if x >= self.surface.width_px() || y >= self.surface.height_px() {
+            return false;
+        }
+        let previous_us = self.surface.get(x, y, e.polarity);
+        previous_us == NEVER_US || e.t_us.saturating_sub(previous_us) >= refractory_us
+    }
+
     /// Events counted so far that passed the refractory filter (in view, marking their
     /// pixel), whether fitted or not: what the fit cap of the next window is sized by.
     pub fn marked(&self) -> u64 {

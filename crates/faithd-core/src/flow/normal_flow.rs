@@ -13,6 +13,11 @@ use crate::event::Event;
 pub const MAX_RADIUS_PX: u16 = 5;
 pub(super) const MAX_POINTS: usize = ((2 * MAX_RADIUS_PX as usize) + 1).pow(2);
 
+/// Events of a capped window tested against the surface to size its fit cap.
+const FIT_CAP_SAMPLE: usize = 1024;
+/// Sampled passes below which a window does not update the share of passes that mark.
+const FIT_CAP_MIN_PASSES: u64 = 32;
+
 /// Tunables of the normal flow stage.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -70,7 +75,7 @@ pub struct FlowConfig {
     pub max_speed_px_s: f64,
     /// At most about this many events of a window get a plane fit; in a busier window
     /// one in k of the events that pass the refractory filter is fitted (k sized from
-    /// the window before, see `NormalFlow::process_window`) and the others only
+    /// a sample of the window, see `NormalFlow::process_window`) and the others only
     /// update the surface. Fits are the flow's cost, and an obstacle filling the
     /// view can bring 50 times a window's usual events: uncapped, that window would
     /// take tens of milliseconds exactly when the decision matters. The history keeps
@@ -171,7 +176,8 @@ pub struct FlowStats {
 pub struct NormalFlow {
     config: FlowConfig,
     tiles: Tiles,
-    /// The last `process_window`'s events and how many passed the refractory filter.
+    /// Of the last capped `process_window` with enough sampled passes: how many of its
+    /// events the sample said would pass the refractory filter, and how many did.
     last_window: Option<(u64, u64)>,
 }
 
@@ -228,27 +234,51 @@ impl NormalFlow {
 
     /// Processes one window's events with about `max_fits` plane fits at most: one in
     /// k of the events that pass the refractory filter is fitted (chosen by a hash of
-    /// the event), and every event updates the surface.
+    /// the event), and every event updates the surface. The same events give the same
+    /// vectors.
     ///
-    /// k is sized before the window from its event count and the share of events that
-    /// passed the filter in the window before (all of them for the first): at a high
-    /// event rate most events are refractory, and a cap counting them would fit a few
-    /// of the events that pass and see next to nothing (at 8 Mev/s on the generated
-    /// streams, one vector a window). The same events give the same vectors.
+    /// k is sized before the window from how many of its events will pass the filter:
+    /// at a high event rate most events are refractory, and a cap counting them would
+    /// fit a few of those that pass and see next to nothing (at 8 Mev/s on the
+    /// generated streams, one vector a window). That count is estimated from a sample
+    /// of the window's events tested against the surface as it stands
+    /// (`FIT_CAP_SAMPLE` of them), scaled by the share of such passes that held in the
+    /// window before: a pixel firing twice in one window passes the test both times,
+    /// but marks only once. The share of the window before alone is not enough: 200 ms
+    /// after a burst of edges, the pixels it marked come out of their refractory
+    /// period together, and a window sized by the quiet one before it fitted 30 times
+    /// the cap (2.5 ms of flow at 12 Mev/s, an overrun on the Atom).
     pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
-        let expected_marked = match self.last_window {
-            Some((events_before, marked_before)) if events_before > 0 => {
-                (events.len() as u64).saturating_mul(marked_before) / events_before
+        let max_fits = max_fits.max(1) as u64;
+        if events.len() as u64 <= max_fits {
+            // Every event may be fitted, whatever passes; the share of passes that
+            // mark is left as the last busy window measured it.
+            self.tiles.run(events, 1, &self.config, out);
+            return;
+        }
+        let stride = events.len().div_ceil(FIT_CAP_SAMPLE);
+        let (passing, looked) =
+            self.tiles
+                .sample_would_mark(events, stride, self.config.refractory_us);
+        let would_mark = (events.len() as u64).saturating_mul(passing) / looked.max(1);
+        let marks_per_pass = match self.last_window {
+            Some((would_before, marked_before)) if would_before > 0 => {
+                (marked_before as f64 / would_before as f64).clamp(1.0 / 64.0, 1.0)
             }
-            _ => events.len() as u64,
+            _ => 1.0,
         };
+        let expected_marked = (would_mark as f64 * marks_per_pass).ceil() as u64;
         let fit_one_in = expected_marked
-            .div_ceil(max_fits.max(1) as u64)
+            .div_ceil(max_fits)
             .clamp(1, u64::from(u32::MAX)) as u32;
         let marked_before = self.tiles.marked();
         self.tiles.run(events, fit_one_in, &self.config, out);
         let marked = self.tiles.marked().saturating_sub(marked_before);
-        self.last_window = Some((events.len() as u64, marked));
+        // A window where too few sampled events passed says little about the share:
+        // keep the one before.
+        if passing >= FIT_CAP_MIN_PASSES {
+            self.last_window = Some((would_mark, marked));
+        }
     }
 
     /// One event: update the surface, then try a plane fit around it.
@@ -402,5 +432,55 @@ mod tests {
         flow.process(&events, &mut out);
         // 50k uniform events over 1 s: a pixel's neighbourhood rarely holds 8 recent ones.
         assert!(out.len() < 2_500, "{} vectors from noise", out.len());
+    }
+
+    /// Every pixel of the sensor once, in `window_us` from `start_us`.
+    fn every_pixel(start_us: i64, window_us: i64) -> Vec<Event> {
+        let pixels = 240 * 180;
+        (0..pixels)
+            .map(|i| {
+                let t_us = start_us + (i as i64 * window_us) / pixels as i64;
+                Event::new(t_us, (i % 240) as u16, (i / 240) as u16, Polarity::On)
+            })
+            .collect()
+    }
+
+    /// Plane fits a window tried: events that marked their pixel and were chosen.
+    fn fits(stats: &FlowStats) -> u64 {
+        stats.events - stats.out_of_view - stats.refractory - stats.not_fitted
+    }
+
+    /// 200 ms after a burst, its pixels leave their refractory period together. The
+    /// windows between passed next to nothing, so a cap sized by the window before
+    /// would fit every event of that one (43,200 fits for a cap of 1000).
+    #[test]
+    fn fit_cap_holds_when_a_burst_leaves_its_refractory_period() {
+        let cam = CameraIntrinsics::dvs240();
+        let config = FlowConfig::default();
+        let mut flow = NormalFlow::new(&cam, config);
+        let mut out = Vec::new();
+        let window_us = 10_000;
+        let mut per_window = Vec::new();
+        for w in 0..25 {
+            out.clear();
+            flow.process_window(&every_pixel(w * window_us, window_us), 1_000, &mut out);
+            per_window.push(flow.take_stats());
+        }
+        let refractory_windows = (config.refractory_us / window_us) as usize;
+        // The quiet windows: every event refractory.
+        for stats in &per_window[1..refractory_windows] {
+            assert_eq!(stats.refractory, stats.events);
+        }
+        for (w, stats) in per_window.iter().enumerate() {
+            let marked = stats.events - stats.refractory;
+            let fits = fits(stats);
+            assert!(fits <= 1_500, "window {w}: {fits} fits of {marked} marked");
+        }
+        // Both bursts marked every pixel and were fitted near the cap.
+        for w in [0, refractory_windows] {
+            let stats = &per_window[w];
+            assert_eq!(stats.events - stats.refractory, 43_200, "window {w}");
+            assert!(fits(stats) >= 800, "window {w}: {} fits", fits(stats));
+        }
     }
 }

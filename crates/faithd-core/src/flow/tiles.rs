@@ -255,6 +255,25 @@ impl Tiles {
         }
     }
 
+    /// Of every `stride`-th event of `events`, how many would mark their pixel on the
+    /// surface as it stands (its owner tile's, so the same whatever the tiling), and
+    /// how many were looked at.
+    pub fn sample_would_mark(
+        &self,
+        events: &[Event],
+        stride: usize,
+        refractory_us: i64,
+    ) -> (u64, u64) {
+        let (mut passing, mut looked) = (0u64, 0u64);
+        for e in events.iter().step_by(stride.max(1)) {
+            let column = self.columns[usize::from(e.x_px).min(self.width_px)];
+            let engine = &self.tiles[usize::from(column.owner)].engine;
+            passing += u64::from(engine.would_mark(e, refractory_us));
+            looked += 1;
+        }
+        (passing, looked)
+    }
+
     /// Events that have marked their pixel (passed the refractory filter), summed over
     /// the tiles since their counters were last taken.
     pub fn marked(&self) -> u64 {
