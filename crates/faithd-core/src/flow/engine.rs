@@ -98,6 +98,22 @@ impl Engine {
     /// refractory time of its previous same-polarity event, takes the event's time.
     #[inline(always)]
     pub fn mark(&mut self, e: &Event, refractory_us: i64) -> Mark {
+        let mark = self.test_mark(e, refractory_us);
+        if let Mark::Marked(x, y) = mark {
+            self.surface.set(x, y, e.polarity, e.t_us);
+        }
+        mark
+    }
+
+    /// Whether `e` would mark its pixel were it processed now. Reads only.
+    #[inline(always)]
+    pub fn would_mark(&self, e: &Event, refractory_us: i64) -> bool {
+        matches!(self.test_mark(e, refractory_us), Mark::Marked(..))
+    }
+
+    /// What `mark` would do with `e`, without doing it.
+    #[inline(always)]
+    fn test_mark(&self, e: &Event, refractory_us: i64) -> Mark {
         let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
         if x >= self.surface.width_px() || y >= self.surface.height_px() {
             return Mark::OutOfView;
@@ -106,20 +122,7 @@ impl Engine {
         if previous_us != NEVER_US && e.t_us.saturating_sub(previous_us) < refractory_us {
             return Mark::Refractory;
         }
-        self.surface.set(x, y, e.polarity, e.t_us);
         Mark::Marked(x, y)
-    }
-
-    /// Whether `e` would mark its pixel were it processed now: in view, and not within
-    /// the refractory time of the pixel's latest same-polarity event. Reads only.
-    #[inline(always)]
-    pub fn would_mark(&self, e: &Event, refractory_us: i64) -> bool {
-        let (x, y) = (usize::from(e.x_px), usize::from(e.y_px));
-        if x >= self.surface.width_px() || y >= self.surface.height_px() {
-            return false;
-        }
-        let previous_us = self.surface.get(x, y, e.polarity);
-        previous_us == NEVER_US || e.t_us.saturating_sub(previous_us) >= refractory_us
     }
 
     /// Events counted so far that passed the refractory filter (in view, marking their
