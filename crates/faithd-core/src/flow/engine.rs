@@ -126,7 +126,8 @@ impl Engine {
     }
 
     /// Events counted so far that passed the refractory filter (in view, marking their
-    /// pixel), whether fitted or not: what the fit cap of the next window is sized by.
+    /// pixel), whether fitted or not: with the sampled estimate of a window, the share
+    /// of passes that mark, which sizes the fit cap of the next (`process_window`).
     pub fn marked(&self) -> u64 {
         self.stats.events - self.stats.out_of_view - self.stats.refractory
     }

@@ -247,7 +247,7 @@ impl NormalFlow {
     /// but marks only once. The share of the window before alone is not enough: 200 ms
     /// after a burst of edges, the pixels it marked come out of their refractory
     /// period together, and a window sized by the quiet one before it fitted 30 times
-    /// the cap (2.5 ms of flow at 12 Mev/s, an overrun on the Atom).
+    /// the cap (2.4 ms of flow at 12 Mev/s, an overrun on the Atom).
     pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
         let max_fits = max_fits.max(1) as u64;
         if events.len() as u64 <= max_fits {
