@@ -208,6 +208,57 @@ fn sensor_box_sides(max_x_px: f64, max_y_px: f64, margin_px: f64) -> [HalfPlane;
     ]
 }
 
+/// A boundary's crossing column in the plateau grid's rows, `x + j step` cells in row
+/// `j`, in 32.32 fixed point: a row's column is then an add and a shift, where a
+/// floating-point floor with its clamps took three times the instructions (the
+/// plateau's updates are FAITH's largest part). The rows a line crosses are placed
+/// within 2^-32 cells.
+#[derive(Clone, Copy)]
+struct FixedLine {
+    x: i64,
+    step: i64,
+}
+
+/// Largest |crossing| and |slope| a `FixedLine` holds, in cells: with at most 512 rows
+/// (`plateau_centroid`'s bound) the sum stays far inside an i64 of 32.32. Nearly
+/// horizontal boundaries go beyond it, and are placed in floating point.
+const FIXED_MAX_CELLS: f64 = 1_048_576.0;
+
+impl FixedLine {
+    fn new(x: f64, step: f64) -> Option<Self> {
+        let fits = |v: f64| v.abs() <= FIXED_MAX_CELLS;
+        let fixed = |v: f64| (v * 4_294_967_296.0) as i64;
+        (fits(x) && fits(step)).then(|| Self {
+            x: fixed(x),
+            step: fixed(step),
+        })
+    }
+
+    fn at(&self, row: i64) -> i64 {
+        self.x + row * self.step
+    }
+}
+
+/// Adds `delta` to row `j`'s slot `column(j)` in every row of the plateau grid, unless
+/// the line is clamped to one edge in its first and last rows (and so in all); true
+/// when it was added.
+fn add_line(
+    grid: &mut [i32],
+    stride: usize,
+    side: usize,
+    delta: i32,
+    column: impl Fn(i64) -> usize,
+) -> bool {
+    let (first, last) = (column(0), column(side as i64 - 1));
+    if first == last && (first == 0 || first == side) {
+        return false;
+    }
+    for (j, row) in grid.chunks_exact_mut(stride).enumerate() {
+        row[column(j as i64)] += delta;
+    }
+    true
+}
+
 /// Boundaries sampled for the coarse plateau pass: enough to place the plateau.
 const COARSE_LINES: usize = 256;
 
@@ -566,50 +617,46 @@ impl Faith {
                 self.leftward.push((x_cross, step));
             }
         }
-        let top = side as f64 + 1.0;
-        let last_row = (side - 1) as f64;
         // Line by line, each over all rows: consecutive updates then go to different
         // rows, where row by row many lines clamp to the same slot and their
         // increments would wait on one another. A line's column is monotonic in the
-        // row (each step of the arithmetic is), so when its first and last rows agree
-        // on "no cell violated" or "every cell violated", so do all rows between: such
-        // a line adds the same to every cell, which moves neither the plateau nor its
-        // centroid, and is left out.
+        // row, so when its first and last rows agree on "no cell violated" or "every
+        // cell violated", so do all rows between: such a line adds the same to every
+        // cell, which moves neither the plateau nor its centroid, and is left out.
         //
-        // Violated right of the crossing: from floor(x) + 1 on. The clamp keeps the
-        // truncating cast a floor (a libm floor call would dominate here).
+        // Violated right of the crossing: from floor(x) + 1 on; left of it, the whole
+        // row minus the cells from ceil(x) on. Each clamped to the row's slots.
         let grid = &mut self.grid[..side * stride];
+        let side_i64 = side as i64;
+        // In floating point, for the lines beyond fixed point: the clamp keeps the
+        // truncating cast a floor (a libm floor call would cost more than the rest).
+        let top = side as f64 + 1.0;
         for &(x, step) in &self.rightward {
-            let column =
-                |jf: f64| (((x + jf * step).clamp(-1.0, top) + 1.0) as i32 as usize).min(side);
-            let (first, last) = (column(0.0), column(last_row));
-            if first == last && (first == 0 || first == side) {
-                continue;
-            }
-            let mut jf = 0.0;
-            for row in grid.chunks_exact_mut(stride) {
-                row[column(jf)] += 1;
-                jf += 1.0;
+            if let Some(line) = FixedLine::new(x, step) {
+                let column = |j: i64| ((line.at(j) >> 32) + 1).clamp(0, side_i64) as usize;
+                add_line(grid, stride, side, 1, column);
+            } else {
+                let column = |j: i64| {
+                    let v = (x + j as f64 * step).clamp(-1.0, top) + 1.0;
+                    (v as usize).min(side)
+                };
+                add_line(grid, stride, side, 1, column);
             }
         }
-        // Violated left of it: the whole row minus the cells from ceil(x) on, with
-        // ceil(x) = K - floor(K - x) for K = side + 1 >= x >= 0.
         let mut whole = 0;
         for &(x, step) in &self.leftward {
-            let column = |jf: f64| {
-                let xc = (x + jf * step).clamp(0.0, top);
-                (side + 1 - ((top - xc) as i32 as usize)).min(side)
+            // ceil(v) = -floor(-v), and = K - floor(K - v) for K = side + 1 >= v >= 0.
+            let added = if let Some(line) = FixedLine::new(x, step) {
+                let column = |j: i64| (-((-line.at(j)) >> 32)).clamp(0, side_i64) as usize;
+                add_line(grid, stride, side, -1, column)
+            } else {
+                let column = |j: i64| {
+                    let v = (x + j as f64 * step).clamp(0.0, top);
+                    (side + 1 - ((top - v) as usize)).min(side)
+                };
+                add_line(grid, stride, side, -1, column)
             };
-            let (first, last) = (column(0.0), column(last_row));
-            if first == last && (first == 0 || first == side) {
-                continue;
-            }
-            let mut jf = 0.0;
-            for row in grid.chunks_exact_mut(stride) {
-                row[column(jf)] -= 1;
-                jf += 1.0;
-            }
-            whole += 1;
+            whole += i32::from(added);
         }
         for j in 0..side {
             self.grid[j * stride + whole_row] += whole;
@@ -969,6 +1016,68 @@ mod tests {
         assert!(centre < 7.0, "centre {centre}");
         assert!(corner < 15.0, "corner {corner}");
         assert!(border < 20.0, "border {border}");
+    }
+
+    /// The plateau's difference arrays, fixed-point rows and skipped lines give the
+    /// centroid a cell-by-cell count of violated half-planes gives: over noisy
+    /// fields, grids placed on and off the FOE, coarse and fine, with a slack of 0 to
+    /// 40 (a shift of the crossing column by one cell fails this).
+    #[test]
+    fn plateau_centroid_equals_counting_every_cell() {
+        let cam = CameraIntrinsics::dvs240();
+        let mut faith = Faith::new(cam, FaithConfig::default());
+        let tol = faith.config.inlier_tolerance_px;
+        let mut checked = 0;
+        for seed in 0..6u64 {
+            let foe = (40.0 + 30.0 * seed as f64, 30.0 + 20.0 * seed as f64);
+            let spec = FlowFieldSpec {
+                outlier_fraction: 0.15,
+                ..noisy(foe)
+            };
+            let flow = radial_normal_flow(&cam, &spec, seed);
+            faith.load_half_planes(&flow);
+            let n = faith.nx.len();
+            for (centre, radius_px, cell_px) in [
+                (foe, 64.0, 8.0),
+                (foe, 24.0, 4.0),
+                ((foe.0 + 17.3, foe.1 - 9.1), 24.0, 4.0),
+                ((foe.0 - 40.7, foe.1 + 33.9), 30.0, 3.0),
+            ] {
+                for slack in [0, 10, 40] {
+                    let got = faith
+                        .plateau_centroid(centre.0, centre.1, radius_px, cell_px, slack, 1)
+                        .unwrap();
+                    let side = (2.0 * radius_px / cell_px).floor() as usize + 1;
+                    let (x0, y0) = (centre.0 - radius_px, centre.1 - radius_px);
+                    let counts: Vec<(usize, usize, usize)> = (0..side * side)
+                        .map(|cell| {
+                            let (i, j) = (cell % side, cell / side);
+                            let (x, y) = (x0 + i as f64 * cell_px, y0 + j as f64 * cell_px);
+                            let violated = (0..n)
+                                .filter(|&k| faith.half_plane(k).excess(x, y) > tol)
+                                .count();
+                            (i, j, violated)
+                        })
+                        .collect();
+                    let least = counts.iter().map(|c| c.2).min().unwrap();
+                    let within: Vec<_> = counts
+                        .iter()
+                        .filter(|c| c.2 <= least + slack as usize)
+                        .collect();
+                    let mean = |f: fn(&&(usize, usize, usize)) -> usize| {
+                        within.iter().map(f).sum::<usize>() as f64 / within.len() as f64
+                    };
+                    let want = (x0 + cell_px * mean(|c| c.0), y0 + cell_px * mean(|c| c.1));
+                    assert!(
+                        (got.0 - want.0).abs() < 1e-9 && (got.1 - want.1).abs() < 1e-9,
+                        "seed {seed}, grid at {centre:?} r {radius_px} cell {cell_px}, \
+                         slack {slack}: {got:?}, counting gives {want:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 72);
     }
 
     #[test]

@@ -23,7 +23,8 @@ impl HalfPlane {
         if !(len > 0.0 && len.is_finite() && x_px.is_finite() && y_px.is_finite()) {
             return None;
         }
-        let (nx, ny) = (u / len, v / len);
+        let inv_len = 1.0 / len;
+        let (nx, ny) = (u * inv_len, v * inv_len);
         Some(Self {
             nx,
             ny,
