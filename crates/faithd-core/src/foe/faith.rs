@@ -483,8 +483,14 @@ impl Faith {
         let mut closest = [(f64::INFINITY, 0usize); FIRST_CUTS];
         for (i, &e) in at_winner.iter().enumerate() {
             if e <= c_tol && -e < closest[FIRST_CUTS - 1].0 {
-                closest[FIRST_CUTS - 1] = (-e, i);
-                closest.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+                // Inserted in order, after any equal one (a sort of the 16 per
+                // insertion cost several microseconds on a window of 2000 vectors).
+                let mut k = FIRST_CUTS - 1;
+                while k > 0 && closest[k - 1].0 > -e {
+                    closest[k] = closest[k - 1];
+                    k -= 1;
+                }
+                closest[k] = (-e, i);
             }
         }
         for &(d, i) in &closest {
