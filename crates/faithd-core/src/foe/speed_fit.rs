@@ -295,8 +295,6 @@ impl UnitFlow {
 #[derive(Debug, Default)]
 pub struct SpeedFit {
     patches: Vec<PatchSums>,
-    /// Each loaded vector's patch.
-    patch_of: Vec<u32>,
     occupied: Vec<PatchSums>,
     /// The occupied patches about the grid's centre.
     centred: CentredPatches,
@@ -314,8 +312,6 @@ impl SpeedFit {
     /// Room for windows of up to `vectors` vectors, so that none allocates.
     pub fn reserve(&mut self, vectors: usize) {
         self.unit.reserve(vectors);
-        self.patch_of
-            .reserve(vectors.saturating_sub(self.patch_of.len()));
     }
 
     /// The FOE placed by the speeds around `start`, or `None` when the vectors give no
@@ -378,18 +374,11 @@ impl SpeedFit {
         let (nx, ny) = (&unit.nx[..n], &unit.ny[..n]);
         let inv_speed = &unit.inv_speed_s_per_px[..n];
         let per_patch = 1.0 / patch_px;
-        // Each vector's patch first, in a loop that vectorises; then the sums, whose
-        // scattered adds are left as the only work of their loop.
-        let (last_col, last_row) = (cols as i32 - 1, rows as i32 - 1);
-        self.patch_of.clear();
-        self.patch_of.extend(x.iter().zip(y).map(|(&x, &y)| {
+        for i in 0..n {
             // Casts saturate: a vector off the sensor lands in the border patch.
-            let col = ((x * per_patch) as i32).clamp(0, last_col);
-            let row = ((y * per_patch) as i32).clamp(0, last_row);
-            (row * cols as i32 + col) as u32
-        }));
-        for (i, &patch) in self.patch_of.iter().enumerate().take(n) {
-            self.patches[patch as usize].add(x[i], y[i], nx[i], ny[i], inv_speed[i]);
+            let col = ((x[i] * per_patch) as usize).min(cols - 1);
+            let row = ((y[i] * per_patch) as usize).min(rows - 1);
+            self.patches[row * cols + col].add(x[i], y[i], nx[i], ny[i], inv_speed[i]);
         }
         self.occupied.clear();
         self.occupied
