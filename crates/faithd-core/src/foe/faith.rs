@@ -286,6 +286,8 @@ pub struct Faith {
     /// Boundaries crossing the plateau grid, as (crossing column, change per row).
     rightward: Vec<(f64, f64)>,
     leftward: Vec<(f64, f64)>,
+    /// Each boundary's distance from the plateau grid's centre.
+    line_distance: Vec<f32>,
     /// The usable vectors of the window, normalised once for the half-planes and the
     /// speed fit.
     unit: UnitFlow,
@@ -311,6 +313,7 @@ impl Faith {
             grid: Vec::new(),
             rightward: Vec::new(),
             leftward: Vec::new(),
+            line_distance: Vec::new(),
             unit: UnitFlow::default(),
             speed_fit: SpeedFit::new(),
             far_candidates: Vec::new(),
@@ -333,6 +336,8 @@ impl Faith {
         for v in [&mut self.rightward, &mut self.leftward] {
             v.reserve(vectors.saturating_sub(v.len()));
         }
+        self.line_distance
+            .reserve(vectors.saturating_sub(self.line_distance.len()));
         self.grid
             .reserve((512 * 514usize).saturating_sub(self.grid.len()));
         self.unit.reserve(vectors);
@@ -603,12 +608,26 @@ impl Faith {
         self.rightward.clear();
         self.leftward.clear();
         let per_cell = 1.0 / cell_px;
-        for k in (0..self.nx.len()).step_by(line_stride.max(1)) {
-            let HalfPlane { nx, ny, c } = self.half_plane(k);
-            let c = c + tol;
-            if (nx * cx + ny * cy - c).abs() > reach {
+        // Each boundary's distance from the grid's centre first, in single precision
+        // and a loop that vectorises: most boundaries miss the grid. A boundary that
+        // misses it is constant over it, so rounding at `reach` (which clears the grid
+        // by a cell) moves nothing.
+        let n = self.nx.len();
+        let (cx32, cy32, tol32) = (cx as f32, cy as f32, tol as f32);
+        let (nx32, ny32, c32) = (&self.nx[..n], &self.ny[..n], &self.c[..n]);
+        self.line_distance.clear();
+        self.line_distance.resize(n, 0.0);
+        let distance = &mut self.line_distance[..n];
+        for i in 0..n {
+            distance[i] = (nx32[i] * cx32 + ny32[i] * cy32 - (c32[i] + tol32)).abs();
+        }
+        let reach32 = reach as f32;
+        for k in (0..n).step_by(line_stride.max(1)) {
+            if self.line_distance[k] > reach32 {
                 continue;
             }
+            let HalfPlane { nx, ny, c } = self.half_plane(k);
+            let c = c + tol;
             if nx.abs() < 1e-9 {
                 // Horizontal boundary: each row is wholly in or out.
                 for j in 0..side {
