@@ -163,10 +163,18 @@ fn the_daemon_makes_only_system_service_syscalls() {
     .unwrap();
     assert!(strace.wait().unwrap().success());
     let table = std::fs::read_to_string(&summary).unwrap();
+    // Rows of strace's table: "% time, seconds, usecs/call, calls, [errors,] syscall".
+    // Other lines can start with a digit too: a thread still running when the
+    // process exits is reported as "PID ???( <detached ...>".
     let used: Vec<&str> = table
         .lines()
-        .filter(|l| l.trim_start().starts_with(|c: char| c.is_ascii_digit()))
-        .filter_map(|l| l.split_whitespace().last())
+        .filter_map(|l| {
+            let fields: Vec<&str> = l.split_whitespace().collect();
+            let numeric = |k: usize| fields.get(k).is_some_and(|f| f.parse::<f64>().is_ok());
+            let name = *fields.last()?;
+            let is_name = name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            (fields.len() >= 5 && numeric(0) && numeric(1) && numeric(3) && is_name).then_some(name)
+        })
         .filter(|name| *name != "total")
         .collect();
     assert!(used.len() > 20, "{table}");
