@@ -602,9 +602,9 @@ impl Faith {
         self.grid.resize(side * stride, 0);
         let reach = radius_px * std::f64::consts::SQRT_2 + cell_px;
         let tol = self.config.inlier_tolerance_px;
-        // Crossing column (in cells, offset by 1 so it is never negative after the
-        // clamp) at row 0 and its change per row, for boundaries violated to the right
-        // and to the left of the crossing.
+        // Crossing column (in cells from the grid's first column) at row 0 and its
+        // change per row, for boundaries violated to the right and to the left of the
+        // crossing.
         self.rightward.clear();
         self.leftward.clear();
         let per_cell = 1.0 / cell_px;

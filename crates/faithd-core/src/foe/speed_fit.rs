@@ -88,19 +88,30 @@ impl PatchSums {
 
     /// `sum (1 - a h_i)^2` at the best `a >= 0` for an FOE at `(fx, fy)`.
     fn residual(&self, fx: f64, fy: f64) -> f64 {
-        let sum_h = self.alpha - self.beta_x * fx - self.beta_y * fy;
-        if sum_h <= 0.0 {
+        let (sum_h, sum_h2) = self.sums_at(fx, fy);
+        if sum_h <= 0.0 || sum_h2 <= 0.0 {
             // The patch contracts about this FOE: a = 0 explains none of it.
             return self.count;
         }
+        (self.count - sum_h * sum_h / sum_h2).max(0.0)
+    }
+
+    /// `sum h` and `sum h^2` for an FOE at `(fx, fy)`.
+    fn sums_at(&self, fx: f64, fy: f64) -> (f64, f64) {
+        let sum_h = self.alpha - self.beta_x * fx - self.beta_y * fy;
         let sum_h2 = self.alpha2 - 2.0 * (self.alpha_beta_x * fx + self.alpha_beta_y * fy)
             + self.beta_xx * fx * fx
             + 2.0 * self.beta_xy * fx * fy
             + self.beta_yy * fy * fy;
-        if sum_h2 <= 0.0 {
-            return self.count;
-        }
-        (self.count - sum_h * sum_h / sum_h2).max(0.0)
+        (sum_h, sum_h2)
+    }
+
+    /// `sum h beta`: half the gradient of `sum h^2`, negated, at `(fx, fy)`.
+    fn h_beta_at(&self, fx: f64, fy: f64) -> (f64, f64) {
+        (
+            self.alpha_beta_x - self.beta_xx * fx - self.beta_xy * fy,
+            self.alpha_beta_y - self.beta_xy * fx - self.beta_yy * fy,
+        )
     }
 }
 
@@ -145,21 +156,15 @@ impl CentredPatches {
             v.clear();
         }
         for p in patches {
-            // sum h_i and sum h_i^2 with h_i = alpha_i - beta_i . c.
-            let h = p.alpha - p.beta_x * cx - p.beta_y * cy;
-            let h2 = p.alpha2 - 2.0 * (p.alpha_beta_x * cx + p.alpha_beta_y * cy)
-                + p.beta_xx * cx * cx
-                + 2.0 * p.beta_xy * cx * cy
-                + p.beta_yy * cy * cy;
+            let (h, h2) = p.sums_at(cx, cy);
+            let (h_beta_x, h_beta_y) = p.h_beta_at(cx, cy);
             self.count.push(p.count as f32);
             self.h.push(h as f32);
             self.h2.push(h2 as f32);
             self.beta_x.push(p.beta_x as f32);
             self.beta_y.push(p.beta_y as f32);
-            self.h_beta_x
-                .push((p.alpha_beta_x - p.beta_xx * cx - p.beta_xy * cy) as f32);
-            self.h_beta_y
-                .push((p.alpha_beta_y - p.beta_xy * cx - p.beta_yy * cy) as f32);
+            self.h_beta_x.push(h_beta_x as f32);
+            self.h_beta_y.push(h_beta_y as f32);
             self.beta_xx.push(p.beta_xx as f32);
             self.beta_xy.push(p.beta_xy as f32);
             self.beta_yy.push(p.beta_yy as f32);
