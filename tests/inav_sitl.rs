@@ -171,6 +171,7 @@ fn assert_only_roll_changed(monitor: &Monitor, radio: &Radio, from_us: i64, to_u
 
 #[test]
 fn the_roll_route_works_beside_the_pilots_radio() {
+    require_sitl!();
     let bench = Bench::new(&[]);
     bench.radio.set(CH_SWITCH, AUTO_US);
     let started_us = unix_us();
@@ -284,6 +285,7 @@ fn journal_time(log: &str, needle: &str) -> Option<i64> {
 
 #[test]
 fn every_stop_and_a_restart_after_a_kill_give_roll_back() {
+    require_sitl!();
     use nix::sys::signal::Signal;
     let bench = Bench::new(&[]);
     bench.radio.set(CH_SWITCH, AUTO_US);
@@ -361,6 +363,7 @@ fn every_stop_and_a_restart_after_a_kill_give_roll_back() {
 
 #[test]
 fn radio_loss_and_inavs_failsafe_close_the_gate() {
+    require_sitl!();
     let bench = Bench::new(&[]);
     bench.radio.set(CH_SWITCH, AUTO_US);
     // The first approach long after the radio is gone.
@@ -402,6 +405,7 @@ fn radio_loss_and_inavs_failsafe_close_the_gate() {
 
 #[test]
 fn an_msp_receiver_is_refused_and_never_streamed_to() {
+    require_sitl!();
     // receiver_type = MSP: iNav would take faithd's frame as the pilot's whole frame.
     let sitl = Sitl::with_committed_setup(&["set receiver_type = MSP"]);
     let monitor = Monitor::start(&sitl);
@@ -463,6 +467,7 @@ fn check_fc(sitl: &Sitl) -> (i32, String) {
 
 #[test]
 fn check_fc_refuses_each_known_bad_wiring_and_its_fix_works() {
+    require_sitl!();
     let sitl = Sitl::with_committed_setup(&[]);
     let (code, out) = check_fc(&sitl);
     assert_eq!(code, 0, "the committed set-up passes:\n{out}");
@@ -539,6 +544,7 @@ fn check_fc_refuses_each_known_bad_wiring_and_its_fix_works() {
 
 #[test]
 fn the_bench_script_measures_rates_switch_and_a_roll_on_inav() {
+    require_sitl!();
     let bench = Bench::new(&[]);
     let dir = common::TempDir::new("hil");
     let report = dir.0.join("report.json");

@@ -2,8 +2,10 @@
 //! from the committed CLI scripts, the pilot's radio played on a real iNav receiver
 //! protocol (IBUS), and a monitor that reads back over MSP what iNav really uses.
 //!
-//! SITL is built from `../shared/inav-sitl/` (cached after the first build; the
-//! `INAV_SITL` environment variable names another executable). Its UARTs are TCP
+//! The project carries no iNav code and no recipe that builds it: the tests take the
+//! path of a SITL executable built beside the project from `INAV_SITL` (iNav 9.1, with
+//! the board's serial timing: `../shared/inav.md` says how) and, when it is unset, skip
+//! with one line (`require_sitl!`). Its UARTs are TCP
 //! listeners: UART n on `base + n - 1`. The set-up used here:
 //! UART1 = MSP (CLI, this harness), UART2 = MSP (the monitor), UART3 = MAVLink
 //! telemetry (faithd), UART4 = MSP (faithd's roll stream), UART5 = the pilot's IBUS
@@ -11,10 +13,10 @@
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, AtomicU16, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -52,27 +54,39 @@ pub fn unix_us() -> i64 {
         .as_micros() as i64
 }
 
-/// The SITL executable, built once per test binary.
-pub fn executable() -> PathBuf {
-    static PATH: OnceLock<PathBuf> = OnceLock::new();
-    PATH.get_or_init(|| {
-        if let Some(p) = std::env::var_os("INAV_SITL") {
-            return PathBuf::from(p);
+/// The environment variable that names iNav's SITL executable.
+pub const SITL_VAR: &str = "INAV_SITL";
+
+/// The SITL executable named by `INAV_SITL`, or `None` when it is unset. A path that
+/// is set but names no file is a mistake in the set-up, not a reason to skip: it
+/// panics with the path.
+pub fn executable() -> Option<PathBuf> {
+    let path = PathBuf::from(std::env::var_os(SITL_VAR)?);
+    assert!(
+        path.is_file(),
+        "{SITL_VAR}={} names no file: build iNav 9.1's SITL beside the project \
+         (../shared/inav.md) and point {SITL_VAR} at its executable",
+        path.display()
+    );
+    Some(path)
+}
+
+/// Returns from the calling test, with one line on stderr, when no SITL is named.
+#[macro_export]
+macro_rules! require_sitl {
+    () => {
+        if $crate::common::sitl::executable().is_none() {
+            // Straight to the process's stderr: the test harness captures eprintln!.
+            use std::io::Write as _;
+            let _ = writeln!(
+                std::io::stderr(),
+                "skipped: {} is not set (the path of an iNav 9.1 SITL built with the board's \
+                 serial timing; ../shared/inav.md)",
+                $crate::common::sitl::SITL_VAR
+            );
+            return;
         }
-        let build = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/inav-sitl/build");
-        let out = Command::new("bash")
-            .arg(&build)
-            .stderr(Stdio::inherit())
-            .output()
-            .unwrap_or_else(|e| panic!("cannot run {}: {e}", build.display()));
-        assert!(
-            out.status.success(),
-            "building iNav SITL with {} failed",
-            build.display()
-        );
-        PathBuf::from(String::from_utf8(out.stdout).unwrap().trim())
-    })
-    .clone()
+    };
 }
 
 /// Eight consecutive free TCP ports (SITL's UARTs), distinct for every SITL this
@@ -115,7 +129,7 @@ pub struct Sitl {
 impl Sitl {
     /// Starts a fresh SITL (empty EEPROM) and waits for its CLI port.
     pub fn start() -> Self {
-        let exe = executable();
+        let exe = executable().expect("INAV_SITL is not set: call require_sitl!() first");
         let dir = TempDir::new("sitl");
         let base_port = free_base_port();
         let log = std::fs::File::create(dir.0.join("sitl.log")).unwrap();
