@@ -174,10 +174,19 @@ const MOVED_KEYS: [(&str, &str, &str); 5] = [
     ),
 ];
 
-/// Where a key the parse refused has moved, if it is one that did.
+/// Where a key the parse refused has moved, or why it was removed, if it is one
+/// that did.
 fn moved_key(key: &str, reason: &str) -> Option<&'static str> {
     if key == "command.sink" && reason.starts_with("invalid type: string") {
         return Some("the sink is now a table: [command.sink] with kind = \"msp\"");
+    }
+    let removed = faithd_core::safety::manoeuvre::REMOVED_KEYS
+        .iter()
+        .find(|(old, _)| {
+            key.starts_with("manoeuvre") && reason.contains(&format!("unknown field `{old}`"))
+        });
+    if let Some((_, why)) = removed {
+        return Some(why);
     }
     MOVED_KEYS.iter().find_map(|&(section, old, hint)| {
         let named = key.starts_with(section) && reason.contains(&format!("unknown field `{old}`"));
@@ -190,6 +199,22 @@ fn moved_key(key: &str, reason: &str) -> Option<&'static str> {
 fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
     c.gate.validate()?;
     c.manoeuvre.validate()?;
+    let range = c.command.roll_rxrange_us;
+    for wanted_us in [
+        faithd_core::safety::rc::NEUTRAL_US,
+        faithd_core::safety::rc::NEUTRAL_US - c.manoeuvre.deflection_us,
+        faithd_core::safety::rc::NEUTRAL_US + c.manoeuvre.deflection_us,
+    ] {
+        check(
+            range.aim(wanted_us).is_some(),
+            "command.roll_rxrange_us",
+            || {
+                format!(
+                    "iNav scales roll from {range} to 1000..2000: no value faithd can send lands within 1 us of {wanted_us}"
+                )
+            },
+        )?;
+    }
     let g = &c.gate;
     check(
         g.pipeline_stale_us >= 2 * c.daemon.period_us,
@@ -325,7 +350,24 @@ mod tests {
             ("[command.sink]\nkind = \"mavlink\"\n", "command.sink"),
             ("[gate]\nswitch_channel = 19\n", "gate.switch_channel"),
             ("[gate]\nauto_max_us = 3000\n", "gate.auto_max_us"),
-            ("[manoeuvre]\nneutral_us = 100\n", "manoeuvre.neutral_us"),
+            ("[manoeuvre]\nneutral_us = 1500\n", "manoeuvre.neutral_us"),
+            ("[manoeuvre]\nreversed = true\n", "manoeuvre.reversed"),
+            (
+                "[manoeuvre]\nresend_period_us = 20000\n",
+                "manoeuvre.resend_period_us",
+            ),
+            (
+                "[command]\nroll_rxrange_us = [1500, 1503]\n",
+                "command.roll_rxrange_us",
+            ),
+            (
+                "[command]\nroll_rxrange_us = [2000, 1000]\n",
+                "command.roll_rxrange_us",
+            ),
+            (
+                "[command]\nmax_hold_after_stop_us = 30000000\n",
+                "command.max_hold_after_stop_us",
+            ),
             (
                 "[command.sink]\nkind = \"msp\"\nbaud = 9\n",
                 "command.sink.baud",
@@ -407,6 +449,17 @@ mod tests {
                 assert!(inv.reason.contains("unknown field"), "{}", inv.reason);
             }
             other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn keys_inav_cannot_mean_are_refused_with_the_reason() {
+        for (text, why) in [
+            ("[manoeuvre]\nneutral_us = 1520\n", "always 1500"),
+            ("[manoeuvre]\nreversed = false\n", "no RC reversal"),
+        ] {
+            let err = FaithdConfig::parse(text).unwrap_err().to_string();
+            assert!(err.contains(why), "{text}: {err}");
         }
     }
 

@@ -15,7 +15,7 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream, ReadHalf, WriteHalf};
 use tokio::sync::mpsc;
 
 use super::inav_mavlink::{self, encode};
-use super::inav_msp::{FcView, InavMsp, Setup};
+use super::inav_msp::{InavMsp, Pilot, Setup};
 use super::physics::Shared;
 use super::uart;
 use crate::clock::DaemonClock;
@@ -128,16 +128,17 @@ async fn run_mavlink(
 /// The pilot's roll stick in the simulated flights: centred.
 const PILOT_ROLL_US: u16 = 1500;
 
-/// iNav's MSP port: one session at a time (faithd reopens after a loss), the roll
-/// iNav uses published to the physics every 5 ms and at every frame.
+/// iNav's MSP port (one session at a time: faithd reopens after a loss), run as a
+/// flight controller runs it ([`super::inav_msp`]) every millisecond of simulated
+/// time; the roll iNav uses goes to the physics at once.
 async fn run_msp(
     mut sessions: mpsc::UnboundedReceiver<DuplexStream>,
     shared: Arc<Shared>,
     clock: DaemonClock,
 ) {
-    let mut fc = InavMsp::new(Setup::default());
+    let mut fc = InavMsp::new(Setup::default(), clock.now_us());
     let mut session: Option<Session> = None;
-    let mut tick = tokio::time::interval(Duration::from_millis(5));
+    let mut tick = tokio::time::interval(Duration::from_millis(1));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut buf = [0u8; 1024];
     loop {
@@ -147,38 +148,45 @@ async fn run_msp(
                 Some(stream) => session = Some(Session::new(stream)),
                 None => return,
             },
-            _ = tick.tick() => publish_roll(&fc, &shared, &clock),
-            got = read(&mut session, &mut buf) => {
-                let n = match got {
-                    Ok(0) | Err(_) => {
-                        session = None;
-                        continue;
-                    }
-                    Ok(n) => n,
-                };
+            _ = tick.tick() => {
                 let now_us = clock.now_us();
-                let (_, roll_us, switch_us) = telemetry(&shared, &clock);
-                let rc = rc_in_use(roll_us, switch_us);
-                let out = fc.receive(&buf[..n], now_us, FcView::flying(rc));
-                if let Some(s) = &mut session
+                fc.set_pilot(pilot(&shared));
+                fc.advance(now_us);
+                let out = fc.take_output();
+                if !out.is_empty()
+                    && let Some(s) = &mut session
                     && s.tx.write_all(&out).await.is_err()
                 {
                     session = None;
                 }
-                publish_roll(&fc, &shared, &clock);
+                publish_roll(&fc, &shared, now_us);
+            }
+            got = read(&mut session, &mut buf) => {
+                match got {
+                    Ok(0) | Err(_) => session = None,
+                    Ok(n) => {
+                        fc.set_pilot(pilot(&shared));
+                        fc.receive(&buf[..n], clock.now_us());
+                    }
+                }
             }
         }
     }
 }
 
-fn publish_roll(fc: &InavMsp, shared: &Shared, clock: &DaemonClock) {
-    let now_us = clock.now_us();
+/// The pilot's side as iNav sees it: armed, in ANGLE, the switch where the flight
+/// has it.
+fn pilot(shared: &Shared) -> Pilot {
     let switch_us = if shared.switch_auto.load(Ordering::Relaxed) {
         1900
     } else {
         1000
     };
-    let roll_us = fc.roll_in_use(now_us, switch_us, PILOT_ROLL_US);
+    Pilot::flying(rc_in_use(PILOT_ROLL_US, switch_us))
+}
+
+fn publish_roll(fc: &InavMsp, shared: &Shared, now_us: i64) {
+    let roll_us = fc.roll_in_use();
     shared.roll_us.store(roll_us, Ordering::Relaxed);
     if roll_us != PILOT_ROLL_US {
         // The first moment iNav used a deflected roll after a manoeuvre started.

@@ -49,7 +49,7 @@ pub fn assemble(windows: Vec<Frame>, world: &WorldRecord<'_>) -> FilmedFlight {
         .map(|mut frame| {
             frame.gate = gate_at(world.gates, frame.t_us);
             if let Some(p) = path_at(world.path, frame.t_us - world.start_us) {
-                frame.inav_roll = Some(inav_roll(p.roll_us, world.manoeuvre));
+                frame.inav_roll = Some(inav_roll(p.roll_us));
                 frame.truth = Some(Truth {
                     foe_px: p.true_foe_px,
                     ttc_s: world.spec.true_ttc_s(p.x_m),
@@ -81,11 +81,10 @@ fn path_at(path: &[PathPoint], flight_us: i64) -> Option<&PathPoint> {
     after.checked_sub(1).map(|i| &path[i])
 }
 
-/// Which way iNav's roll value `value_us` rolls, by the manoeuvre's own centre and
-/// sense.
-fn inav_roll(value_us: u16, manoeuvre: &ManoeuvreConfig) -> InavRoll {
-    let neutral_us = manoeuvre.neutral_us.us();
-    let sense = if (value_us > neutral_us) != manoeuvre.reversed {
+/// Which way iNav's roll value `value_us` rolls: above its centre, right.
+fn inav_roll(value_us: u16) -> InavRoll {
+    let neutral_us = faithd_core::safety::rc::NEUTRAL_US;
+    let sense = if value_us > neutral_us {
         RollDirection::Right
     } else {
         RollDirection::Left
@@ -113,18 +112,9 @@ mod tests {
     }
 
     #[test]
-    fn the_roll_value_reads_as_a_direction_by_the_manoeuvres_sense() {
-        let m = ManoeuvreConfig::default();
-        assert_eq!(inav_roll(1500, &m).direction, None);
-        assert_eq!(inav_roll(1800, &m).direction, Some(RollDirection::Right));
-        assert_eq!(inav_roll(1200, &m).direction, Some(RollDirection::Left));
-        let reversed = ManoeuvreConfig {
-            reversed: true,
-            ..m
-        };
-        assert_eq!(
-            inav_roll(1800, &reversed).direction,
-            Some(RollDirection::Left)
-        );
+    fn the_roll_value_reads_as_a_direction_about_inavs_centre() {
+        assert_eq!(inav_roll(1500).direction, None);
+        assert_eq!(inav_roll(1800).direction, Some(RollDirection::Right));
+        assert_eq!(inav_roll(1200).direction, Some(RollDirection::Left));
     }
 }

@@ -232,7 +232,9 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
             cycles: Some(cycles_tx),
             frames: options.film.then_some(frames_tx),
         },
-        observer: Some(obs_tx),
+        observer: Some(Box::new(move |o| {
+            let _ = obs_tx.send(o);
+        })),
     };
     let start_us = clock.now_us() + (spec.lead_in_s * 1e6) as i64;
     let done = shared.clone();

@@ -10,11 +10,13 @@ use std::time::Duration;
 
 use super::CommandConfig;
 use faithd_core::safety::gate::{FIRST_AUX_CHANNEL, GateConfig};
+use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
 
 use super::msp_port::{self, MspError, MspPort};
 
 /// iNav's mode ids (fc/fc_msp_box.c, permanent ids).
 const MODE_ARM: u8 = 0;
+const MODE_ANGLE: u8 = 1;
 const MODE_FAILSAFE: u8 = 27;
 const MODE_MSP_RC_OVERRIDE: u8 = 50;
 /// fc/runtime_config.h: ARMED in MSP2_INAV_STATUS's arming flags.
@@ -23,6 +25,9 @@ const ARMING_FLAG_ARMED: u32 = 1 << 2;
 const MAVLINK_TICK_US: i64 = 20_000;
 /// rx/rx.h and flight/failsafe.h: PERIOD_RXDATA_RECOVERY and PERIOD_RXDATA_FAILURE.
 const RXDATA_PERIOD_US: i64 = 200_000;
+/// rx/msp.c: iNav notices that MSP frames stopped this long after the last one
+/// (`rxSignalTimeout = DELAY_5_HZ`), and only then starts its failure period.
+const MSP_SIGNAL_TIMEOUT_US: i64 = 200_000;
 /// receiver_type's table in fc/settings.yaml.
 const RECEIVER_TYPES: [&str; 4] = ["NONE", "SERIAL", "MSP", "SIM (SITL)"];
 /// serial_rx's table in fc/settings.yaml.
@@ -98,6 +103,9 @@ pub struct FcSettings {
     pub mavlink_version: u8,
     /// MSP_BOXIDS: the modes this build offers, in the order of the status bits.
     pub box_ids: Vec<u8>,
+    /// `rxrange` of roll, read in iNav's CLI (no MSP command reports it); `None`
+    /// when not read (the daemon never enters the CLI: leaving it reboots iNav).
+    pub roll_rxrange: Option<(u16, u16)>,
 }
 
 /// Where MSP2_INAV_STATUS keeps the bits faithd reads.
@@ -107,12 +115,23 @@ pub struct StatusBits {
     pub failsafe: Option<u8>,
     /// Bit of the MSP RC OVERRIDE mode.
     pub msp_override: u8,
+    /// Bit of ANGLE, when the build offers it (without it ANGLE reads off).
+    pub angle: Option<u8>,
+}
+
+/// What MSP2_INAV_STATUS says, as faithd reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StatusFlags {
+    pub armed: bool,
+    pub failsafe: bool,
+    pub override_on: bool,
+    pub angle: bool,
 }
 
 impl StatusBits {
-    /// Reads an MSP2_INAV_STATUS reply: (armed, failsafe, override on); `None` when
-    /// it is too short to hold the mode bits.
-    pub fn decode(&self, payload: &[u8]) -> Option<(bool, bool, bool)> {
+    /// Reads an MSP2_INAV_STATUS reply; `None` when it is too short to hold the mode
+    /// bits.
+    pub fn decode(&self, payload: &[u8]) -> Option<StatusFlags> {
         let flags = u32::from_le_bytes(payload.get(9..13)?.try_into().ok()?);
         let modes = payload.get(13..)?;
         let bit = |i: u8| {
@@ -120,14 +139,16 @@ impl StatusBits {
                 .get(usize::from(i / 8))
                 .map(|b| b & (1 << (i % 8)) != 0)
         };
-        Some((
-            flags & ARMING_FLAG_ARMED != 0,
-            match self.failsafe {
-                Some(i) => bit(i)?,
-                None => false,
-            },
-            bit(self.msp_override)?,
-        ))
+        let optional = |i: Option<u8>| match i {
+            Some(i) => bit(i),
+            None => Some(false),
+        };
+        Some(StatusFlags {
+            armed: flags & ARMING_FLAG_ARMED != 0,
+            failsafe: optional(self.failsafe)?,
+            override_on: bit(self.msp_override)?,
+            angle: optional(self.angle)?,
+        })
     }
 }
 
@@ -140,11 +161,16 @@ pub struct Expectations {
     pub attitude_stale_us: i64,
     pub rc_stale_us: i64,
     pub autopilot_system_id: u8,
+    /// iNav's `rxrange` for roll as faithd.toml says it is.
+    pub roll_rxrange: RxRange,
+    /// The longest iNav may keep faithd's last value after faithd stops.
+    pub max_hold_after_stop_us: i64,
 }
 
 impl Expectations {
-    /// From the gate's settings and the autopilot's MAVLink system id.
-    pub fn new(gate: &GateConfig, autopilot_system_id: u8) -> Self {
+    /// From the gate's settings, the command path's and the autopilot's MAVLink
+    /// system id.
+    pub fn new(gate: &GateConfig, command: &CommandConfig, autopilot_system_id: u8) -> Self {
         Self {
             switch_channel: gate.switch_channel.get(),
             auto_min_us: gate.auto_min_us.us(),
@@ -152,6 +178,8 @@ impl Expectations {
             attitude_stale_us: gate.attitude_stale_us,
             rc_stale_us: gate.rc_stale_us,
             autopilot_system_id,
+            roll_rxrange: command.roll_rxrange_us,
+            max_hold_after_stop_us: command.max_hold_after_stop_us,
         }
     }
 }
@@ -176,8 +204,9 @@ pub struct RouteFacts {
     /// Fresh frames iNav needs before it applies the override (its own failsafe
     /// recovery: 200 ms + failsafe_recovery_delay).
     pub warmup_us: i64,
-    /// How long iNav keeps faithd's last value after frames stop (200 ms +
-    /// failsafe_delay): the bound on a roll outliving a killed faithd.
+    /// How long iNav keeps faithd's last value after frames stop (200 ms until it
+    /// notices, then 200 ms + failsafe_delay): the bound on a roll outliving a killed
+    /// faithd.
     pub hold_after_stop_us: i64,
     /// Worst period of ATTITUDE and RC_CHANNELS at the configured rates.
     pub attitude_period_us: i64,
@@ -374,6 +403,8 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         arm_on_switch.map(|m| format!("aux {} 0 <other aux channel> 1700 2100 (ARM on a switch of its own)", m.slot)),
     );
 
+    item_angle(s, want, free_slot, &mut item);
+
     let attitude_period = mavlink_stream_period_us(s.mavlink_extra1_rate);
     let rc_period = mavlink_stream_period_us(s.mavlink_rc_chan_rate);
     let rate_item = |rate: u8, period: Option<i64>, stale_us: i64, key: &str, setting: &str| {
@@ -489,19 +520,76 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
     );
 
     let warmup_us = RXDATA_PERIOD_US + i64::from(s.failsafe_recovery_delay_ds) * 100_000;
-    let hold_after_stop_us = RXDATA_PERIOD_US + i64::from(s.failsafe_delay_ds) * 100_000;
+    let hold_after_stop_us =
+        MSP_SIGNAL_TIMEOUT_US + RXDATA_PERIOD_US + i64::from(s.failsafe_delay_ds) * 100_000;
+    let hold_too_long = hold_after_stop_us > want.max_hold_after_stop_us;
+    // The largest failsafe_delay (tenths of a second) within the bound.
+    let delay_fits_ds =
+        (want.max_hold_after_stop_us - MSP_SIGNAL_TIMEOUT_US - RXDATA_PERIOD_US).max(0) / 100_000;
     item(
         "failsafe delays",
         format!(
-            "failsafe_recovery_delay = {}, failsafe_delay = {}: iNav applies the override after {} ms of frames and keeps faithd's last value {} ms after they stop",
+            "failsafe_recovery_delay = {}, failsafe_delay = {}: iNav applies the override after {} ms of frames and keeps faithd's last value {} ms after they stop (200 ms to notice, 200 ms + failsafe_delay to give it up)",
             s.failsafe_recovery_delay_ds,
             s.failsafe_delay_ds,
             warmup_us / 1000,
             hold_after_stop_us / 1000
         ),
-        None,
-        None,
+        hold_too_long.then(|| {
+            format!(
+                "after a crash iNav would keep faithd's last roll for {} ms, longer than command.max_hold_after_stop_us ({} ms)",
+                hold_after_stop_us / 1000,
+                want.max_hold_after_stop_us / 1000
+            )
+        }),
+        hold_too_long.then(|| format!("set failsafe_delay = {}", delay_fits_ds.min(5))),
     );
+
+    match s.roll_rxrange {
+        Some((min_us, max_us)) => {
+            let found = format!("rxrange 0 {min_us} {max_us}");
+            let range = RxRange::new(min_us, max_us);
+            let aimable = range.is_some_and(|r| {
+                [NEUTRAL_US, NEUTRAL_US - 500, NEUTRAL_US + 500]
+                    .iter()
+                    .all(|v| r.aim(*v).is_some())
+            });
+            let problem = if !aimable {
+                Some(format!(
+                    "iNav scales roll from {min_us}..{max_us} to 1000..2000: faithd cannot make it use the centre and a full roll through that"
+                ))
+            } else if range != Some(want.roll_rxrange) {
+                Some(format!(
+                    "faithd aims its roll through command.roll_rxrange_us = [{}, {}]: iNav would use other values than faithd commands (1800 would arrive as {}) and the roll check would fail",
+                    want.roll_rxrange.min_us(),
+                    want.roll_rxrange.max_us(),
+                    range.map_or(0, |r| r
+                        .scale(want.roll_rxrange.aim(1800).map_or(1800, |a| a.0)))
+                ))
+            } else {
+                None
+            };
+            let fix = problem.as_ref().map(|_| {
+                if aimable {
+                    format!("in faithd.toml: [command] roll_rxrange_us = [{min_us}, {max_us}]")
+                } else {
+                    "calibrate the radio's roll again (`rxrange 0 1000 2000` is iNav's default)"
+                        .into()
+                }
+            });
+            item("roll calibration", found, problem, fix);
+        }
+        None => item(
+            "roll calibration",
+            format!(
+                "rxrange not read (no MSP command reports it): faithd aims its roll through command.roll_rxrange_us = [{}, {}], which `faithd check-fc` verifies",
+                want.roll_rxrange.min_us(),
+                want.roll_rxrange.max_us()
+            ),
+            None,
+            None,
+        ),
+    }
 
     let passed = items.iter().all(|i| i.problem.is_none());
     FcReport {
@@ -516,10 +604,153 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
                 status_bits: StatusBits {
                     failsafe: position(MODE_FAILSAFE),
                     msp_override,
+                    angle: position(MODE_ANGLE),
                 },
             }),
         items,
     }
+}
+
+/// ANGLE whenever faithd may roll: a roll stick outside ANGLE (and HORIZON) is a
+/// rotation rate in iNav (flight/pid.c), so 1.5 s of it rolls the vehicle over.
+/// faithd rolls only in AUTO and armed: ANGLE must be on over the whole AUTO range of
+/// the switch, or over the whole range of the ARM switch.
+fn item_angle(
+    s: &FcSettings,
+    want: &Expectations,
+    free_slot: usize,
+    item: &mut impl FnMut(&'static str, String, Option<String>, Option<String>),
+) {
+    let usable = |id: u8| -> Vec<&ModeRange> {
+        s.modes
+            .iter()
+            .filter(|m| m.usable() && m.mode_id == id)
+            .collect()
+    };
+    let angles = usable(MODE_ANGLE);
+    let covers = |outer: &ModeRange, inner: &ModeRange| {
+        outer.channel() == inner.channel()
+            && outer.low_us() <= inner.low_us()
+            && outer.high_us() >= inner.high_us()
+    };
+    let covered_by_angle = |m: &&ModeRange| angles.iter().any(|a| covers(a, m));
+    let overrides = usable(MODE_MSP_RC_OVERRIDE);
+    let arms = usable(MODE_ARM);
+    let on_auto = !overrides.is_empty() && overrides.iter().all(covered_by_angle);
+    let on_arm = !arms.is_empty() && arms.iter().all(covered_by_angle);
+    let found = if angles.is_empty() {
+        "ANGLE not on a switch".to_string()
+    } else {
+        format!(
+            "ANGLE: {}",
+            angles
+                .iter()
+                .map(|m| format!(
+                    "slot {} on channel {} at {}..{} us",
+                    m.slot,
+                    m.channel(),
+                    m.low_us(),
+                    m.high_us()
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    let safe = on_auto || on_arm;
+    item(
+        "ANGLE on AUTO",
+        found,
+        (!safe).then(|| {
+            format!(
+                "the switch can be in AUTO (channel {} at {}..{} us) without ANGLE: there iNav takes a roll stick as a rotation rate, and a 1.5 s roll turns the vehicle over",
+                want.switch_channel, want.auto_min_us, want.auto_max_us
+            )
+        }),
+        (!safe).then(|| {
+            format!(
+                "aux {free_slot} {MODE_ANGLE} {} {} {}",
+                want.switch_channel.saturating_sub(FIRST_AUX_CHANNEL),
+                want.auto_min_us,
+                want.auto_max_us
+            )
+        }),
+    );
+}
+
+/// One request of the set-up check, repeated in flight by the roll stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Recheck {
+    OverrideChannels,
+    ChannelMap,
+    ModeRanges,
+}
+
+/// What the stream reads again in flight, one request at a time: iNav reads these on
+/// every frame, and another MSP port (a configurator, a script) can change them.
+pub const RECHECKS: [Recheck; 3] = [
+    Recheck::OverrideChannels,
+    Recheck::ChannelMap,
+    Recheck::ModeRanges,
+];
+
+impl Recheck {
+    pub fn command(self) -> u16 {
+        match self {
+            Recheck::OverrideChannels => msp_port::MSP2_COMMON_SETTING,
+            Recheck::ChannelMap => msp_port::MSP_RX_MAP,
+            Recheck::ModeRanges => msp_port::MSP_MODE_RANGES,
+        }
+    }
+
+    pub fn request(self) -> Vec<u8> {
+        match self {
+            Recheck::OverrideChannels => {
+                super::msp::encode_request(self.command(), b"msp_override_channels\0")
+            }
+            _ => super::msp::encode_request(self.command(), &[]),
+        }
+    }
+
+    /// What changed since `checked`, in iNav's terms; `None` when nothing did.
+    pub fn changed(self, checked: &FcSettings, reply: &[u8]) -> Option<String> {
+        match self {
+            Recheck::OverrideChannels => {
+                let now = msp_port::le_unsigned(reply);
+                (now != checked.msp_override_channels).then(|| {
+                    format!(
+                        "msp_override_channels is now {now}, was {}",
+                        checked.msp_override_channels
+                    )
+                })
+            }
+            Recheck::ChannelMap => {
+                let now: Vec<u8> = reply.iter().take(4).copied().collect();
+                (now != checked.rcmap)
+                    .then(|| format!("the channel map is now {now:?}, was {:?}", checked.rcmap))
+            }
+            Recheck::ModeRanges => {
+                let now = mode_ranges(reply);
+                let was: Vec<&ModeRange> = checked.modes.iter().filter(|m| m.usable()).collect();
+                let is: Vec<&ModeRange> = now.iter().filter(|m| m.usable()).collect();
+                (is != was).then(|| "the mode ranges (aux) changed".to_string())
+            }
+        }
+    }
+}
+
+/// MSP_MODE_RANGES: (mode id, aux index, start step, end step) per slot.
+fn mode_ranges(reply: &[u8]) -> Vec<ModeRange> {
+    reply
+        .chunks_exact(4)
+        .enumerate()
+        .map(|(slot, m)| ModeRange {
+            slot,
+            mode_id: m[0],
+            aux_index: m[1],
+            start_step: m[2],
+            end_step: m[3],
+        })
+        .collect()
 }
 
 /// Reads every setting the check needs over an open MSP port.
@@ -556,24 +787,21 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
         mavlink_ext_status_rate,
         mavlink_sysid,
         rcmap: [byte(&map, 0), byte(&map, 1), byte(&map, 2), byte(&map, 3)],
-        modes: ranges
-            .chunks_exact(4)
-            .enumerate()
-            .map(|(slot, m)| ModeRange {
-                slot,
-                mode_id: m[0],
-                aux_index: m[1],
-                start_step: m[2],
-                end_step: m[3],
-            })
-            .collect(),
+        modes: mode_ranges(&ranges),
         mavlink_version,
         box_ids,
+        roll_rxrange: None,
     })
 }
 
 /// `faithd check-fc`: opens `command.sink.endpoint`, reads and judges the set-up.
-pub fn check_over_msp(command: &CommandConfig, expect: &Expectations) -> Result<FcReport, String> {
+/// With `read_rxrange`, a disarmed flight controller's `rxrange` is read in its CLI
+/// too, which iNav leaves only by rebooting.
+pub fn check_over_msp(
+    command: &CommandConfig,
+    expect: &Expectations,
+    read_rxrange: bool,
+) -> Result<FcReport, String> {
     let endpoint = command.msp_port();
     let timeout = Duration::from_micros(command.msp_timeout_us.max(1) as u64);
     let runtime = tokio::runtime::Builder::new_current_thread()
@@ -586,8 +814,71 @@ pub fn check_over_msp(command: &CommandConfig, expect: &Expectations) -> Result<
             .map_err(|_| format!("{endpoint} did not open within 3 s"))?
             .map_err(|e| format!("{endpoint}: {e}"))?;
         let mut port = MspPort::new(transport);
-        let settings = read(&mut port, timeout).await.map_err(|e| e.to_string())?;
+        let mut settings = read(&mut port, timeout).await.map_err(|e| e.to_string())?;
+        if !read_rxrange {
+            return Ok(evaluate(&settings, expect));
+        }
+        let status = port
+            .request(msp_port::MSP2_INAV_STATUS, &[], timeout)
+            .await
+            .map_err(|e| e.to_string())?;
+        let armed = status
+            .get(9..13)
+            .is_some_and(|f| u32::from_le_bytes([f[0], f[1], f[2], f[3]]) & ARMING_FLAG_ARMED != 0);
+        if armed {
+            let mut report = evaluate(&settings, expect);
+            report.route = None;
+            for i in report.items.iter_mut().filter(|i| i.what == "roll calibration") {
+                i.problem = Some("not read: the vehicle is armed, and iNav's CLI, the only place rxrange can be read, reboots the flight controller when it is left".into());
+                i.fix = Some("disarm, then run `faithd check-fc` again".into());
+            }
+            return Ok(report);
+        }
+        settings.roll_rxrange = Some(read_roll_rxrange(&mut port).await?);
         Ok(evaluate(&settings, expect))
+    })
+}
+
+/// Reads `rxrange` of roll in iNav's CLI (fc/cli.c `cliRxRange` prints
+/// `rxrange <channel> <min> <max>` for the four flight channels), then leaves it with
+/// `exit`, which reboots the flight controller.
+async fn read_roll_rxrange(port: &mut MspPort) -> Result<(u16, u16), String> {
+    let io = |e: std::io::Error| format!("iNav's CLI: {e}");
+    let cli = |e: MspError| format!("iNav's CLI: {e}");
+    port.send_text(b"#").await.map_err(io)?;
+    let banner = port
+        .read_text(Duration::from_secs(2), |t| {
+            t.contains("CLI") && t.ends_with("# ")
+        })
+        .await
+        .map_err(cli)?;
+    if !banner.contains("CLI") {
+        return Err(format!(
+            "iNav did not enter its CLI after `#` (it answered {banner:?}): is the vehicle armed?"
+        ));
+    }
+    port.send_text(b"rxrange\r\n").await.map_err(io)?;
+    let text = port
+        .read_text(Duration::from_secs(2), |t| {
+            t.contains("rxrange 3 ") && t.trim_end().ends_with('#')
+        })
+        .await
+        .map_err(cli)?;
+    let _ = port.send_text(b"exit\r\n").await;
+    let _ = port
+        .read_text(Duration::from_millis(500), |t| t.contains("Leaving CLI"))
+        .await;
+    parse_rxrange(&text, 0)
+        .ok_or_else(|| format!("iNav's CLI printed no `rxrange 0` line: {text:?}"))
+}
+
+/// The `rxrange <channel> <min> <max>` line of `channel` in iNav's CLI output.
+fn parse_rxrange(text: &str, channel: u8) -> Option<(u16, u16)> {
+    text.lines().find_map(|line| {
+        let mut words = line.split_whitespace();
+        (words.next()? == "rxrange" && words.next()?.parse::<u8>().ok()? == channel)
+            .then_some(())?;
+        Some((words.next()?.parse().ok()?, words.next()?.parse().ok()?))
     })
 }
 
@@ -606,10 +897,18 @@ mod tests {
                 end_step: 0,
             })
             .collect();
-        // aux 0 0 0 1700 2100 (ARM on channel 5), aux 2 50 1 1700 2100 (channel 6).
+        // aux 0 0 0 1700 2100 (ARM on channel 5), aux 1 1 0 1700 2100 (ANGLE with
+        // it), aux 2 50 1 1700 2100 (channel 6).
         modes[0] = ModeRange {
             slot: 0,
             mode_id: MODE_ARM,
+            aux_index: 0,
+            start_step: 32,
+            end_step: 48,
+        };
+        modes[1] = ModeRange {
+            slot: 1,
+            mode_id: MODE_ANGLE,
             aux_index: 0,
             start_step: 32,
             end_step: 48,
@@ -641,11 +940,12 @@ mod tests {
                 0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44,
                 50, 62, 63, 65, 66, 67,
             ],
+            roll_rxrange: Some((1000, 2000)),
         }
     }
 
     fn want() -> Expectations {
-        Expectations::new(&GateConfig::default(), 1)
+        Expectations::new(&GateConfig::default(), &CommandConfig::default(), 1)
     }
 
     #[test]
@@ -654,14 +954,17 @@ mod tests {
         assert_eq!(report.problems().count(), 0, "{}", report.summary());
         let route = report.route.unwrap();
         assert_eq!(route.warmup_us, 700_000);
-        assert_eq!(route.hold_after_stop_us, 700_000);
+        // 200 ms before iNav notices, then 200 ms + failsafe_delay (measured on SITL:
+        // 0.89-0.94 s).
+        assert_eq!(route.hold_after_stop_us, 900_000);
         assert_eq!(route.attitude_period_us, 40_000);
         assert_eq!(route.roll_frame_index, 0);
         assert_eq!(
             route.status_bits,
             StatusBits {
                 failsafe: Some(16),
-                msp_override: 23
+                msp_override: 23,
+                angle: Some(3),
             }
         );
     }
@@ -671,17 +974,27 @@ mod tests {
         let bits = StatusBits {
             failsafe: Some(16),
             msp_override: 23,
+            angle: Some(3),
+        };
+        let flags = |armed, failsafe, override_on, angle| {
+            Some(StatusFlags {
+                armed,
+                failsafe,
+                override_on,
+                angle,
+            })
         };
         // cycle time .. profile (9 bytes), arming flags, then the mode bits.
         let mut payload = vec![0u8; 9];
         payload.extend_from_slice(&(ARMING_FLAG_ARMED | 1 << 3).to_le_bytes());
         // bit 16 (failsafe) and bit 23 (override) are both in the third byte.
-        payload.extend_from_slice(&[0b0000_0001, 0, 0b1000_0001, 0, 0, 0, 0, 0]);
-        assert_eq!(bits.decode(&payload), Some((true, true, true)));
+        payload.extend_from_slice(&[0b0000_1001, 0, 0b1000_0001, 0, 0, 0, 0, 0]);
+        assert_eq!(bits.decode(&payload), flags(true, true, true, true));
+        payload[13] = 0b0000_0001;
         payload[15] = 0;
         payload[16] = 0;
         payload[9] = 0;
-        assert_eq!(bits.decode(&payload), Some((false, false, false)));
+        assert_eq!(bits.decode(&payload), flags(false, false, false, false));
         assert_eq!(bits.decode(&payload[..14]), None, "too short");
     }
 
@@ -720,7 +1033,7 @@ mod tests {
         refused(s, "override channels", "set msp_override_channels = 1");
         let mut s = good();
         s.modes[2].end_step = 0;
-        refused(s, "override mode", "aux 1 50 1 1700 2100");
+        refused(s, "override mode", "aux 2 50 1 1700 2100");
         let mut s = good();
         s.modes[2].start_step = 20; // active from 1400 us: in MANUAL too
         refused(s, "override mode", "aux 2 50 1 1700 2100");
@@ -748,6 +1061,94 @@ mod tests {
         let mut s = good();
         s.box_ids.retain(|b| *b != MODE_MSP_RC_OVERRIDE);
         refused(s, "override in this build", "USE_MSP_RC_OVERRIDE");
+        // ANGLE on another switch: AUTO can be on without it.
+        let mut s = good();
+        s.modes[1].aux_index = 2;
+        refused(s, "ANGLE on AUTO", "aux 3 1 1 1700 2100");
+        let mut s = good();
+        s.modes[1].end_step = 0;
+        refused(s, "ANGLE on AUTO", "aux 1 1 1 1700 2100");
+        // failsafe_delay 10: iNav would hold faithd's roll 1.4 s after a crash.
+        let mut s = good();
+        s.failsafe_delay_ds = 10;
+        refused(s, "failsafe delays", "set failsafe_delay = 5");
+        // A calibrated receiver that faithd.toml does not know of.
+        let mut s = good();
+        s.roll_rxrange = Some((988, 2012));
+        refused(s, "roll calibration", "roll_rxrange_us = [988, 2012]");
+        let mut s = good();
+        // Three microseconds wide: iNav's values jump by 333 us, 1500 cannot be hit.
+        s.roll_rxrange = Some((1500, 1503));
+        refused(s, "roll calibration", "calibrate");
+    }
+
+    #[test]
+    fn angle_on_the_auto_switch_itself_passes_too() {
+        let mut s = good();
+        s.modes[1] = ModeRange {
+            slot: 1,
+            mode_id: MODE_ANGLE,
+            aux_index: 1,
+            start_step: 30,
+            end_step: 48,
+        };
+        let report = evaluate(&s, &want());
+        assert!(report.route.is_some(), "{}", report.summary());
+        // Covering only part of AUTO is not enough.
+        s.modes[1].start_step = 34;
+        assert!(evaluate(&s, &want()).route.is_none());
+    }
+
+    #[test]
+    fn a_known_calibration_passes_and_an_unread_one_is_named() {
+        let mut s = good();
+        s.roll_rxrange = Some((988, 2012));
+        let command = CommandConfig {
+            roll_rxrange_us: RxRange::new(988, 2012).unwrap(),
+            ..CommandConfig::default()
+        };
+        let want = Expectations::new(&GateConfig::default(), &command, 1);
+        assert!(evaluate(&s, &want).route.is_some());
+        s.roll_rxrange = None;
+        let report = evaluate(&s, &want);
+        assert!(report.route.is_some());
+        let item = report
+            .items
+            .iter()
+            .find(|i| i.what == "roll calibration")
+            .unwrap();
+        assert!(item.found.contains("not read"), "{}", item.found);
+    }
+
+    #[test]
+    fn rxrange_is_read_from_inavs_cli_output() {
+        let text = "rxrange\r\nrxrange 0 988 2012\r\nrxrange 1 1000 2000\r\n\r\n# ";
+        assert_eq!(parse_rxrange(text, 0), Some((988, 2012)));
+        assert_eq!(parse_rxrange(text, 1), Some((1000, 2000)));
+        assert_eq!(parse_rxrange(text, 2), None);
+        assert_eq!(parse_rxrange("rxrange 0 x 2000", 0), None);
+    }
+
+    #[test]
+    fn a_recheck_names_what_changed_in_flight() {
+        let s = good();
+        let mask = |v: u32| v.to_le_bytes().to_vec();
+        assert_eq!(Recheck::OverrideChannels.changed(&s, &mask(1)), None);
+        let what = Recheck::OverrideChannels.changed(&s, &mask(9)).unwrap();
+        assert!(
+            what.contains("msp_override_channels is now 9, was 1"),
+            "{what}"
+        );
+        assert!(Recheck::ChannelMap.changed(&s, &[0, 1, 3, 2]).is_none());
+        assert!(Recheck::ChannelMap.changed(&s, &[1, 0, 3, 2]).is_some());
+        let mut ranges: Vec<u8> = s
+            .modes
+            .iter()
+            .flat_map(|m| [m.mode_id, m.aux_index, m.start_step, m.end_step])
+            .collect();
+        assert!(Recheck::ModeRanges.changed(&s, &ranges).is_none());
+        ranges[4 * 2 + 1] = 3; // the override moved to another channel
+        assert!(Recheck::ModeRanges.changed(&s, &ranges).is_some());
     }
 
     #[test]

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::link::endpoint::{Address, Endpoint};
 use faithd_core::invalid::{Invalid, check};
+use faithd_core::safety::rc::RxRange;
 
 /// Why `kind = "mavlink"` is refused, measured on iNav 9.1 SITL.
 pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel (the roll was in effect in 37-62% of samples) and 0/65535 cannot release it; use kind = \"msp\" (README, Setting up iNav)";
@@ -90,6 +91,14 @@ pub struct CommandConfig {
     pub msp_timeout_us: i64,
     /// Extra wait after iNav's own override recovery delay before the gate may open.
     pub warmup_margin_us: i64,
+    /// iNav's calibration of roll (`rxrange 0 MIN MAX` in its CLI): iNav scales every
+    /// value on roll, faithd's included, from this range to 1000..2000. faithd aims
+    /// its values through it; `faithd check-fc` reads iNav's and compares.
+    pub roll_rxrange_us: RxRange,
+    /// The longest iNav may keep faithd's last roll value after faithd stops (a
+    /// crash, a kill): `faithd check-fc` and the daemon refuse a failsafe_delay that
+    /// makes iNav's hold (0.4 s + failsafe_delay) longer.
+    pub max_hold_after_stop_us: i64,
 }
 
 impl Default for CommandConfig {
@@ -99,6 +108,8 @@ impl Default for CommandConfig {
             confirm_within_us: 200_000,
             msp_timeout_us: 500_000,
             warmup_margin_us: 100_000,
+            roll_rxrange_us: RxRange::DEFAULT,
+            max_hold_after_stop_us: 1_000_000,
         }
     }
 }
@@ -131,6 +142,16 @@ impl CommandConfig {
             (0..=5_000_000).contains(&cmd.warmup_margin_us),
             "command.warmup_margin_us",
             || format!("must be 0 to 5 s, got {}", cmd.warmup_margin_us),
+        )?;
+        check(
+            (400_000..=20_400_000).contains(&cmd.max_hold_after_stop_us),
+            "command.max_hold_after_stop_us",
+            || {
+                format!(
+                    "must be 0.4 s (iNav's hold with failsafe_delay = 0) to 20.4 s, got {}",
+                    cmd.max_hold_after_stop_us
+                )
+            },
         )
     }
 }

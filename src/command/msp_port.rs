@@ -1,5 +1,11 @@
 //! Request and reply over iNav's MSP port: the flight-controller check reads its
 //! settings this way, and the roll stream reads back MSP_RC (what iNav uses).
+//!
+//! Every command faithd writes here waits for its slot: one command per
+//! [`MSP_SLOT_US`], half of what iNav's 100 Hz serial task serves on a port
+//! (fc/fc_tasks.c; msp/msp_serial.c answers one command per run). A sender that
+//! outruns the port fills its 256-byte receive ring, and the ring loses bytes
+//! (drivers/serial_uart.h); the callers keep one request outstanding at a time.
 
 use std::time::Duration;
 
@@ -7,6 +13,7 @@ use tokio::io::{AsyncReadExt, ReadHalf, WriteHalf};
 
 use super::msp::{self, Decoder, Frame};
 use crate::link::endpoint::BoxedTransport;
+pub use faithd_core::safety::manoeuvre::MSP_SLOT_US;
 
 /// MSP_FC_VARIANT: four ASCII letters, "INAV" on iNav.
 pub const MSP_FC_VARIANT: u16 = 2;
@@ -41,10 +48,13 @@ pub enum MspError {
 
 /// One MSP port, split so that the roll stream can write while it reads replies.
 pub struct MspPort {
-    pub rx: ReadHalf<BoxedTransport>,
-    pub tx: WriteHalf<BoxedTransport>,
-    pub decoder: Decoder,
-    frames: Vec<Frame>,
+    rx: ReadHalf<BoxedTransport>,
+    tx: WriteHalf<BoxedTransport>,
+    decoder: Decoder,
+    /// Frames decoded and not yet taken, oldest first.
+    frames: std::collections::VecDeque<Frame>,
+    /// The earliest time the next command may be written.
+    next_slot: tokio::time::Instant,
 }
 
 impl MspPort {
@@ -54,50 +64,105 @@ impl MspPort {
             rx,
             tx,
             decoder: Decoder::default(),
-            frames: Vec::new(),
+            frames: Default::default(),
+            next_slot: tokio::time::Instant::now(),
         }
     }
 
-    /// Writes one frame and flushes it: a write that returns has left faithd. A
-    /// write stuck for [`crate::link::endpoint::WRITE_TIMEOUT`] fails.
-    pub async fn write(&mut self, frame: &[u8]) -> std::io::Result<()> {
-        crate::link::endpoint::write_bounded(&mut self.tx, frame).await
+    /// Frames dropped for a bad checksum so far.
+    pub fn bad_crc(&self) -> u64 {
+        self.decoder.bad_crc
     }
 
-    /// Sends `command` and waits for its reply, skipping replies to other commands
-    /// (acknowledgements of MSP_SET_RAW_RC, a late reply to an earlier request).
+    /// The earliest time the next command may be written.
+    pub fn next_slot(&self) -> tokio::time::Instant {
+        self.next_slot
+    }
+
+    /// Writes one command in its slot and flushes it: a write that returns has left
+    /// faithd. A write stuck for [`crate::link::endpoint::WRITE_TIMEOUT`] fails.
+    /// Returns the time the slot began.
+    pub async fn send(&mut self, frame: &[u8]) -> std::io::Result<tokio::time::Instant> {
+        tokio::time::sleep_until(self.next_slot).await;
+        let at = tokio::time::Instant::now();
+        self.next_slot = at + Duration::from_micros(MSP_SLOT_US as u64);
+        crate::link::endpoint::write_bounded(&mut self.tx, frame).await?;
+        Ok(at)
+    }
+
+    /// The next frame from the flight controller. Cancel-safe: a frame decoded and
+    /// not returned stays for the next call.
+    pub async fn next_frame(&mut self) -> Result<Frame, MspError> {
+        let mut buf = [0u8; 512];
+        loop {
+            if let Some(frame) = self.frames.pop_front() {
+                return Ok(frame);
+            }
+            let n = self.rx.read(&mut buf).await?;
+            if n == 0 {
+                return Err(MspError::Closed);
+            }
+            let mut decoded = Vec::new();
+            self.decoder.push(&buf[..n], &mut decoded);
+            self.frames.extend(decoded);
+        }
+    }
+
+    /// Waits for the reply to `command`, skipping replies to other commands (a late
+    /// reply to an earlier request). Replies iNav refused (`!`) are an error.
+    pub async fn reply(&mut self, command: u16, timeout: Duration) -> Result<Vec<u8>, MspError> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        loop {
+            let frame = tokio::time::timeout_at(deadline, self.next_frame())
+                .await
+                .map_err(|_| MspError::Timeout {
+                    command,
+                    timeout_ms: timeout.as_millis(),
+                })??;
+            if frame.command != command || frame.direction == b'<' {
+                continue;
+            }
+            return match frame.direction {
+                b'!' => Err(MspError::Refused { command }),
+                _ => Ok(frame.payload),
+            };
+        }
+    }
+
+    /// Sends `command` in its slot and waits for its reply: one request outstanding.
     pub async fn request(
         &mut self,
         command: u16,
         payload: &[u8],
         timeout: Duration,
     ) -> Result<Vec<u8>, MspError> {
-        self.write(&msp::encode_request(command, payload)).await?;
+        self.send(&msp::encode_request(command, payload)).await?;
+        self.reply(command, timeout).await
+    }
+
+    /// Writes raw bytes (iNav's CLI is not MSP) in a slot of their own.
+    pub async fn send_text(&mut self, text: &[u8]) -> std::io::Result<()> {
+        self.send(text).await.map(|_| ())
+    }
+
+    /// Reads raw bytes until `until` says the text is complete, or `timeout` passes.
+    pub async fn read_text(
+        &mut self,
+        timeout: Duration,
+        until: impl Fn(&str) -> bool,
+    ) -> Result<String, MspError> {
         let deadline = tokio::time::Instant::now() + timeout;
+        let mut text = Vec::new();
         let mut buf = [0u8; 512];
-        loop {
-            if let Some(i) = self.frames.iter().position(|f| f.command == command) {
-                let frame = self.frames.remove(i);
-                self.frames.clear();
-                return match frame.direction {
-                    b'!' => Err(MspError::Refused { command }),
-                    _ => Ok(frame.payload),
-                };
-            }
-            self.frames.clear();
-            let read = tokio::time::timeout_at(deadline, self.rx.read(&mut buf)).await;
-            match read {
-                Err(_) => {
-                    return Err(MspError::Timeout {
-                        command,
-                        timeout_ms: timeout.as_millis(),
-                    });
-                }
-                Ok(Ok(0)) => return Err(MspError::Closed),
-                Ok(Ok(n)) => self.decoder.push(&buf[..n], &mut self.frames),
+        while !until(&String::from_utf8_lossy(&text)) {
+            match tokio::time::timeout_at(deadline, self.rx.read(&mut buf)).await {
+                Err(_) => break,
+                Ok(Ok(0)) => break,
+                Ok(Ok(n)) => text.extend_from_slice(&buf[..n]),
                 Ok(Err(e)) => return Err(e.into()),
             }
         }
+        Ok(String::from_utf8_lossy(&text).into_owned())
     }
 
     /// Reads one setting by its iNav CLI name, as an unsigned number (settings are

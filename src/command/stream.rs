@@ -1,34 +1,45 @@
 //! The roll stream: MSP_SET_RAW_RC to iNav for as long as its MSP port is open.
 //!
 //! iNav's MSP RC override has a failsafe of its own: it applies frames only after
-//! 200 ms + failsafe_recovery_delay of them, and keeps the last value for 200 ms +
-//! failsafe_delay after they stop (rx/msp_override.c; 0.70-0.74 s and 0.89-0.90 s
-//! measured on SITL with the defaults). A sender that is silent between rolls loses
-//! half of every 1.5 s roll that way. So faithd streams from the moment the port is
-//! open and checked: the stick centre while idle, the roll during a manoeuvre. In
-//! AUTO iNav therefore holds roll at centre between manoeuvres; in MANUAL its
-//! override mode is off and the pilot's stick is all it uses.
+//! 200 ms + failsafe_recovery_delay of them, and keeps the last value for 400 ms +
+//! failsafe_delay after they stop (rx/msp.c, rx/msp_override.c; 0.70-0.74 s and
+//! 0.89-0.94 s measured on SITL with the defaults). A sender that is silent between
+//! rolls loses half of every 1.5 s roll that way. So faithd streams from the moment
+//! the port is open and checked: iNav's centre while idle, the roll during a
+//! manoeuvre. In AUTO iNav therefore holds roll at centre between manoeuvres; in
+//! MANUAL its override mode is off and the pilot's stick is all it uses.
 //!
-//! Every period the stream also asks MSP_RC, the channel values iNav really uses:
-//! the commander compares the roll channel with what it commanded.
+//! The port carries what a flight controller can serve: one command per 20 ms slot
+//! ([`super::msp_port`]), each answered before the next is written. The roll frame
+//! goes first whenever the held value changed and at least every
+//! `manoeuvre.resend_period_us`; the other slots ask MSP_RC (the roll iNav really
+//! uses, for the commander's check) and MSP2_INAV_STATUS (armed, failsafe, ANGLE, the
+//! override mode) in turn, and about once a second one request of the set-up check
+//! again: a set-up changed in flight (from a configurator on another port) stops the
+//! stream and closes the gate with what changed.
+//!
+//! Whatever the commander does, the stream holds a roll no longer than a roll lasts
+//! plus a margin ([`StreamSettings::hold_bound`]), then reverts to the centre.
 
 use std::time::Duration;
 
-use tokio::io::AsyncReadExt;
 use tokio::sync::{mpsc, oneshot, watch};
 
-use super::fc_check::{self, Expectations, RouteFacts};
+use super::fc_check::{self, Expectations, FcSettings, RouteFacts};
 use super::msp;
-use super::msp_port::{self, MspPort};
+use super::msp_port::{self, MspError, MspPort};
 use crate::clock::DaemonClock;
 use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
+use faithd_core::safety::commander::RollReport;
+use faithd_core::safety::gate::FcStatus;
+use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
 
 /// The stream's knobs, from the config.
 #[derive(Clone, Copy, Debug)]
 pub struct StreamSettings {
-    pub neutral_us: u16,
-    pub period: Duration,
+    /// The roll frame goes out at least this often.
+    pub roll_period: Duration,
     /// Replies (set-up reads, MSP_RC) must come within this.
     pub reply_timeout: Duration,
     /// Wait beyond iNav's recovery delay before the gate may open.
@@ -38,29 +49,28 @@ pub struct StreamSettings {
     /// How long a refused set-up waits before it is read again.
     pub recheck: Duration,
     pub expect: Expectations,
-}
-
-/// iNav's roll channel value, as MSP_RC reported it at daemon time `t_us`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RollReport {
-    pub t_us: i64,
-    pub roll_us: u16,
+    /// iNav's calibration of roll: values are aimed through it.
+    pub roll_rxrange: RxRange,
+    /// A value other than the centre held longer than this is dropped by the stream.
+    pub hold_bound: Duration,
 }
 
 /// What the stream publishes for the gate and the commander.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct StreamStatus {
     pub setup_refused: bool,
+    /// The set-up changed in flight: the stream stopped until it is checked again.
+    pub setup_changed: bool,
     /// From this daemon time on iNav applies the stream; `None` while not streaming.
     pub ready_at_us: Option<i64>,
     pub facts: Option<RouteFacts>,
     pub last_report: Option<RollReport>,
-    /// iNav's own state (armed, failsafe, override mode), read every period.
-    pub fc: Option<faithd_core::safety::gate::FcStatus>,
+    /// iNav's own state (armed, failsafe, ANGLE, override mode).
+    pub fc: Option<FcStatus>,
 }
 
-/// Asks the stream to end with the stick centre: `repeats` frames one period apart,
-/// each flushed; the answer is how many went out, or why none could.
+/// Asks the stream to end with the stick centre: `repeats` frames one period apart;
+/// the answer is how many went out, or why none could.
 pub struct StopRequest {
     pub repeats: u32,
     pub done: oneshot::Sender<Result<u32, String>>,
@@ -68,7 +78,7 @@ pub struct StopRequest {
 
 /// The commander's side of the stream.
 pub struct StreamHandle {
-    /// The roll value the stream holds (the centre when idle).
+    /// The roll value iNav should use (the centre when idle).
     pub held: watch::Sender<u16>,
     pub status: watch::Receiver<StreamStatus>,
     pub stop: mpsc::Sender<StopRequest>,
@@ -81,7 +91,7 @@ pub fn spawn(
     clock: DaemonClock,
     heartbeat: Heartbeat,
 ) -> StreamHandle {
-    let (held, held_rx) = watch::channel(settings.neutral_us);
+    let (held, held_rx) = watch::channel(NEUTRAL_US);
     let (status_tx, status) = watch::channel(StreamStatus::default());
     let (stop, stop_rx) = mpsc::channel(1);
     let channels = Channels {
@@ -107,25 +117,27 @@ struct Channels {
 pub async fn release_directly(
     endpoint: &Endpoint,
     facts: RouteFacts,
-    neutral_us: u16,
+    roll_rxrange: RxRange,
     repeats: u32,
+    period: Duration,
 ) -> Result<u32, String> {
     let transport = endpoint
         .open()
         .await
         .map_err(|e| format!("cannot open {endpoint}: {e}"))?;
     let mut port = MspPort::new(transport);
-    let centre = raw_rc_frame(facts.roll_frame_index, neutral_us, neutral_us);
-    release(&mut port, &centre, repeats, Duration::from_millis(20)).await
+    let centre = raw_rc_frame(facts.roll_frame_index, NEUTRAL_US, roll_rxrange);
+    release(&mut port, &centre, repeats, period).await
 }
 
-/// MSP_SET_RAW_RC: the four flight channels at the centre, `roll_us` in the slot of
-/// the radio channel that feeds iNav's roll. iNav needs all four valid to trust the
-/// frame, and takes from it only the channels in msp_override_channels (roll alone,
-/// as `faithd check-fc` verified).
-pub fn raw_rc_frame(roll_frame_index: usize, roll_us: u16, neutral_us: u16) -> Vec<u8> {
-    let mut channels = [neutral_us; 4];
-    channels[roll_frame_index.min(3)] = roll_us;
+/// MSP_SET_RAW_RC: the four flight channels at the centre, and in the slot of the
+/// radio channel that feeds iNav's roll the value that iNav, after scaling it by
+/// `rxrange`, uses as `roll_us`. iNav needs all four valid to trust the frame, and
+/// takes from it only the channels in msp_override_channels (roll alone, as
+/// `faithd check-fc` verified).
+pub fn raw_rc_frame(roll_frame_index: usize, roll_us: u16, roll_rxrange: RxRange) -> Vec<u8> {
+    let mut channels = [NEUTRAL_US; 4];
+    channels[roll_frame_index.min(3)] = roll_rxrange.aim(roll_us).map_or(roll_us, |(sent, _)| sent);
     msp::set_raw_rc(&channels)
 }
 
@@ -160,8 +172,9 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
                         tracing::error!(%endpoint, "flight controller set-up refused, faithd will not command: {summary}");
                         settings.recheck
                     }
-                    Ok(Ok(facts)) => {
-                        let why = serve(&mut port, facts, &settings, &clock, &mut channels).await;
+                    Ok(Ok((fc, facts))) => {
+                        let why =
+                            serve(&mut port, &fc, facts, &settings, &clock, &mut channels).await;
                         channels.status.send_modify(|s| {
                             s.ready_at_us = None;
                             s.last_report = None;
@@ -169,11 +182,16 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
                         });
                         match why {
                             Ended::Stopped => return,
+                            Ended::SetupChanged(what) => {
+                                channels.status.send_modify(|s| s.setup_changed = true);
+                                tracing::error!(%endpoint, "the flight controller's set-up changed in flight ({what}): faithd stopped streaming and closes the gate until the set-up is checked again");
+                                Duration::ZERO
+                            }
                             Ended::Failed(why) => {
-                                tracing::warn!(%endpoint, "MSP command port lost: {why}; reopening")
+                                tracing::warn!(%endpoint, "MSP command port lost: {why}; reopening");
+                                backoff
                             }
                         }
-                        backoff
                     }
                 }
             }
@@ -194,7 +212,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
 async fn check(
     port: &mut MspPort,
     settings: &StreamSettings,
-) -> Result<Result<RouteFacts, String>, String> {
+) -> Result<Result<(FcSettings, RouteFacts), String>, String> {
     let fc = fc_check::read(port, settings.reply_timeout)
         .await
         .map_err(|e| e.to_string())?;
@@ -204,7 +222,7 @@ async fn check(
             for item in &report.items {
                 tracing::info!("flight controller {}: {}", item.what, item.found);
             }
-            Ok(facts)
+            Ok((fc, facts))
         }
         None => Err(report.summary()),
     })
@@ -212,11 +230,87 @@ async fn check(
 
 enum Ended {
     Stopped,
+    SetupChanged(String),
     Failed(String),
+}
+
+/// What the stream asks in the slots the roll frame leaves free.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Ask {
+    Rc,
+    Status,
+    Recheck(fc_check::Recheck),
+}
+
+/// MSP_RC and MSP2_INAV_STATUS in turn; every [`RECHECK_EVERY`] asks, the next part
+/// of the set-up check instead.
+struct Rotation {
+    n: usize,
+    recheck: usize,
+}
+
+/// About once a second with the roll frame in every other slot.
+const RECHECK_EVERY: usize = 25;
+
+impl Rotation {
+    fn next(&mut self) -> Ask {
+        self.n += 1;
+        if self.n.is_multiple_of(RECHECK_EVERY) {
+            self.recheck += 1;
+            return Ask::Recheck(fc_check::RECHECKS[self.recheck % fc_check::RECHECKS.len()]);
+        }
+        if self.n.is_multiple_of(2) {
+            Ask::Rc
+        } else {
+            Ask::Status
+        }
+    }
+}
+
+/// The value streamed, and how long it has been other than the centre.
+struct Held {
+    wanted_us: u16,
+    raised_at: Option<tokio::time::Instant>,
+    /// The bound ran out: the stream sends the centre until the commander does too.
+    reverted: bool,
+}
+
+impl Held {
+    /// The commander asked for `wanted_us`.
+    fn set(&mut self, wanted_us: u16) {
+        if wanted_us == self.wanted_us {
+            return;
+        }
+        self.wanted_us = wanted_us;
+        self.reverted = false;
+        self.raised_at = (wanted_us != NEUTRAL_US).then(tokio::time::Instant::now);
+    }
+
+    /// The value to send now; reverts (once, with a journal line) past the bound.
+    fn value_us(&mut self, bound: Duration) -> u16 {
+        if let Some(raised_at) = self.raised_at
+            && !self.reverted
+            && raised_at.elapsed() > bound
+        {
+            self.reverted = true;
+            tracing::error!(
+                held_us = self.wanted_us,
+                bound_ms = bound.as_millis(),
+                "roll {} us held for longer than a roll lasts: the stream reverts to the centre on its own",
+                self.wanted_us
+            );
+        }
+        if self.reverted {
+            NEUTRAL_US
+        } else {
+            self.wanted_us
+        }
+    }
 }
 
 async fn serve(
     port: &mut MspPort,
+    checked: &FcSettings,
     facts: RouteFacts,
     settings: &StreamSettings,
     clock: &DaemonClock,
@@ -228,21 +322,20 @@ async fn serve(
         stop,
         heartbeat,
     } = channels;
-    let neutral = settings.neutral_us;
-    let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, neutral);
-    let mut requests = msp::encode_request(msp_port::MSP_RC, &[]);
-    requests.extend(msp::encode_request(msp_port::MSP2_INAV_STATUS, &[]));
+    let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, settings.roll_rxrange);
     // Whatever was held before the port went away, the stream starts at the centre:
     // that is the release a restarted or reconnected faithd owes the pilot.
     held.mark_unchanged();
-    let mut roll_us = neutral;
-    if let Err(e) = port.write(&frame(roll_us)).await {
-        return Ended::Failed(format!("write failed: {e}"));
-    }
+    let mut wanted = Held {
+        wanted_us: NEUTRAL_US,
+        raised_at: None,
+        reverted: false,
+    };
     let started_us = clock.now_us();
     let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
     status.send_modify(|s| {
         s.setup_refused = false;
+        s.setup_changed = false;
         s.facts = Some(facts);
         s.ready_at_us = Some(ready_at_us);
     });
@@ -250,74 +343,111 @@ async fn serve(
         warmup_ms = (ready_at_us - started_us) / 1000,
         "MSP roll stream started at the stick centre"
     );
-    let mut tick = tokio::time::interval(settings.period);
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut last_reply = tokio::time::Instant::now();
-    let mut frames = Vec::new();
-    let mut buf = [0u8; 512];
+    let mut rotation = Rotation { n: 0, recheck: 0 };
+    let mut sent_us: Option<u16> = None;
+    let mut last_roll_frame = tokio::time::Instant::now();
     let mut refusals = 0u64;
     loop {
         heartbeat.beat();
-        // Biased (polled in this order, as everywhere in the daemon): the stop and the
-        // send period come before the replies, which cannot starve them.
+        if held.has_changed().unwrap_or(false) {
+            wanted.set(*held.borrow_and_update());
+        }
+        let value_us = wanted.value_us(settings.hold_bound);
+        // Due when the value changed, or when the next slot comes a period after the
+        // last roll frame: the roll frame and the requests then take turns.
+        let roll_due =
+            sent_us != Some(value_us) || port.next_slot() >= last_roll_frame + settings.roll_period;
+        let ask = if roll_due {
+            None
+        } else {
+            Some(rotation.next())
+        };
+        // The slot comes first; a stop wins over it, and a new value takes the slot
+        // from a request (the roll frame is always first in line).
         tokio::select! {
             biased;
             Some(req) = stop.recv() => {
-                let sent = release(port, &frame(neutral), req.repeats, settings.period).await;
+                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
                 let _ = req.done.send(sent);
                 return Ended::Stopped;
             }
-            _ = tick.tick() => {
-                if last_reply.elapsed() > settings.reply_timeout {
-                    return Ended::Failed(format!(
-                        "no MSP_RC reply for {} ms", last_reply.elapsed().as_millis()
-                    ));
+            Ok(()) = held.changed(), if ask.is_some() => {
+                wanted.set(*held.borrow_and_update());
+                continue;
+            }
+            _ = tokio::time::sleep_until(port.next_slot()) => {}
+        }
+        let (command, bytes) = match ask {
+            None => (msp::MSP_SET_RAW_RC, frame(value_us)),
+            Some(Ask::Rc) => (msp_port::MSP_RC, msp::encode_request(msp_port::MSP_RC, &[])),
+            Some(Ask::Status) => (
+                msp_port::MSP2_INAV_STATUS,
+                msp::encode_request(msp_port::MSP2_INAV_STATUS, &[]),
+            ),
+            Some(Ask::Recheck(r)) => (r.command(), r.request()),
+        };
+        let slot_at = match port.send(&bytes).await {
+            Ok(at) => at,
+            Err(e) => return Ended::Failed(format!("write failed: {e}")),
+        };
+        if ask.is_none() {
+            sent_us = Some(value_us);
+            last_roll_frame = slot_at;
+        }
+        let reply = tokio::select! {
+            biased;
+            Some(req) = stop.recv() => {
+                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
+                let _ = req.done.send(sent);
+                return Ended::Stopped;
+            }
+            reply = port.reply(command, settings.reply_timeout) => reply,
+        };
+        let payload = match reply {
+            Ok(payload) => payload,
+            Err(MspError::Refused { command }) => {
+                refusals += 1;
+                if refusals.is_power_of_two() {
+                    tracing::error!(
+                        command,
+                        refusals,
+                        "the flight controller refused an MSP command"
+                    );
                 }
-                let mut out = frame(roll_us);
-                out.extend_from_slice(&requests);
-                if let Err(e) = port.write(&out).await {
-                    return Ended::Failed(format!("write failed: {e}"));
+                continue;
+            }
+            Err(e) => return Ended::Failed(e.to_string()),
+        };
+        match ask {
+            None => {}
+            Some(Ask::Rc) => {
+                if let Some(roll_us) = msp_port::rc_values(&payload).next() {
+                    let report = RollReport {
+                        t_us: clock.now_us(),
+                        roll_us,
+                    };
+                    status.send_modify(|s| s.last_report = Some(report));
                 }
             }
-            Ok(()) = held.changed() => {
-                roll_us = *held.borrow_and_update();
-                if let Err(e) = port.write(&frame(roll_us)).await {
-                    return Ended::Failed(format!("write failed: {e}"));
-                }
-            }
-            got = port.rx.read(&mut buf) => {
-                let n = match got {
-                    Ok(0) => return Ended::Failed("end of stream".into()),
-                    Ok(n) => n,
-                    Err(e) => return Ended::Failed(format!("read failed: {e}")),
-                };
-                port.decoder.push(&buf[..n], &mut frames);
-                for f in frames.drain(..) {
-                    if f.direction == b'!' {
-                        refusals += 1;
-                        if refusals.is_power_of_two() {
-                            tracing::error!(command = f.command, refusals, "the flight controller refused an MSP command");
-                        }
-                    } else if f.command == msp_port::MSP_RC {
-                        last_reply = tokio::time::Instant::now();
-                        if let Some(roll) = msp_port::rc_values(&f.payload).next() {
-                            let report = RollReport { t_us: clock.now_us(), roll_us: roll };
-                            status.send_modify(|s| s.last_report = Some(report));
-                        }
-                    } else if f.command == msp_port::MSP2_INAV_STATUS {
-                        match facts.status_bits.decode(&f.payload) {
-                            Some((armed, failsafe, override_on)) => publish_fc_status(
-                                status,
-                                faithd_core::safety::gate::FcStatus {
-                                    t_us: clock.now_us(),
-                                    armed,
-                                    failsafe,
-                                    override_on,
-                                },
-                            ),
-                            None => tracing::warn!(bytes = f.payload.len(), "MSP2_INAV_STATUS reply too short; ignored"),
-                        }
-                    }
+            Some(Ask::Status) => match facts.status_bits.decode(&payload) {
+                Some(bits) => publish_fc_status(
+                    status,
+                    FcStatus {
+                        t_us: clock.now_us(),
+                        armed: bits.armed,
+                        failsafe: bits.failsafe,
+                        override_on: bits.override_on,
+                        angle: bits.angle,
+                    },
+                ),
+                None => tracing::warn!(
+                    bytes = payload.len(),
+                    "MSP2_INAV_STATUS reply too short; ignored"
+                ),
+            },
+            Some(Ask::Recheck(r)) => {
+                if let Some(what) = r.changed(checked, &payload) {
+                    return Ended::SetupChanged(what);
                 }
             }
         }
@@ -325,17 +455,15 @@ async fn serve(
 }
 
 /// Hands iNav's latest status to the gate, saying in the journal when it changed.
-fn publish_fc_status(
-    status: &watch::Sender<StreamStatus>,
-    fc: faithd_core::safety::gate::FcStatus,
-) {
-    let flags = |f: &faithd_core::safety::gate::FcStatus| (f.armed, f.failsafe, f.override_on);
+fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: FcStatus) {
+    let flags = |f: &FcStatus| (f.armed, f.failsafe, f.override_on, f.angle);
     status.send_modify(|s| {
         if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
             tracing::info!(
                 armed = fc.armed,
                 failsafe = fc.failsafe,
                 override_on = fc.override_on,
+                angle = fc.angle,
                 "flight controller status"
             );
         }
@@ -343,7 +471,8 @@ fn publish_fc_status(
     });
 }
 
-/// Writes the centre `repeats` times, one period apart, each flushed.
+/// Writes the centre `repeats` times, one period apart, each in its slot and
+/// acknowledged (or given a period to be).
 async fn release(
     port: &mut MspPort,
     centre: &[u8],
@@ -352,11 +481,15 @@ async fn release(
 ) -> Result<u32, String> {
     for n in 0..repeats.max(1) {
         if n > 0 {
-            tokio::time::sleep(period).await;
+            tokio::time::sleep(
+                period.saturating_sub(Duration::from_micros(msp_port::MSP_SLOT_US as u64)),
+            )
+            .await;
         }
-        port.write(centre)
+        port.send(centre)
             .await
             .map_err(|e| format!("{n} of {repeats} written, then: {e}"))?;
+        let _ = port.reply(msp::MSP_SET_RAW_RC, period).await;
     }
     Ok(repeats.max(1))
 }
@@ -368,9 +501,18 @@ mod tests {
     #[test]
     fn frame_carries_the_roll_in_the_mapped_slot_and_the_centre_elsewhere() {
         let mut out = Vec::new();
-        msp::Decoder::default().push(&raw_rc_frame(1, 1800, 1500), &mut out);
+        msp::Decoder::default().push(&raw_rc_frame(1, 1800, RxRange::DEFAULT), &mut out);
         let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
         assert_eq!(values, vec![1500, 1800, 1500, 1500]);
         assert_eq!(out[0].command, msp::MSP_SET_RAW_RC);
+    }
+
+    #[test]
+    fn frame_aims_the_roll_through_rxrange() {
+        let mut out = Vec::new();
+        let range = RxRange::new(988, 2012).unwrap();
+        msp::Decoder::default().push(&raw_rc_frame(0, 1800, range), &mut out);
+        let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
+        assert_eq!(range.scale(values[0]), 1800);
     }
 }

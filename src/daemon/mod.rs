@@ -24,7 +24,6 @@ use tokio::sync::{mpsc, watch};
 
 use crate::clock::DaemonClock;
 use crate::command::fc_check::Expectations;
-use crate::command::stream::RollReport;
 use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
 use crate::link::endpoint::Endpoint;
@@ -36,9 +35,11 @@ use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::Action;
 use faithd_core::event::Event;
 use faithd_core::pipeline::PipelineTelemetry;
-use faithd_core::safety::confirm::{RollConfirm, Verdict};
-use faithd_core::safety::gate::{self, Blocker, CommandPathStatus, GateState, PipelineStatus};
-use faithd_core::safety::manoeuvre::{Command, Commander, RollRequest, Transition};
+use faithd_core::safety::commander::{
+    Commander, CommanderConfig, Event as CommanderEvent, Inputs, RollCall, RollReport,
+};
+use faithd_core::safety::gate::{CommandPathStatus, GateState, PipelineStatus};
+use faithd_core::safety::manoeuvre::RollRequest;
 use faithd_core::safety::vehicle::VehicleState;
 
 #[derive(Debug, thiserror::Error)]
@@ -51,6 +52,12 @@ pub enum DaemonError {
     /// to restart it.
     #[error("stopped on a fault: {0}")]
     Fault(String),
+    /// SIGHUP: nobody asked faithd to stop for good (systemd stops it with SIGTERM),
+    /// so it exits non-zero and `Restart=on-failure` starts it again.
+    #[error(
+        "stopped by SIGHUP after releasing the roll; exiting non-zero so that systemd restarts faithd"
+    )]
+    Hangup,
 }
 
 /// How [`serve`] ended.
@@ -145,6 +152,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     // Threads still blocked in a device or a disk are not waited for.
     runtime.shutdown_timeout(Duration::from_millis(200));
     match ended {
+        Ended::Requested("SIGHUP") => Err(DaemonError::Hangup),
         Ended::Requested(_) => Ok(()),
         Ended::Fault(why) => Err(DaemonError::Fault(why)),
         Ended::Refused { key, reason } => Err(DaemonError::Config { key, reason }),
@@ -190,8 +198,12 @@ pub enum Execution {
 pub struct Hooks {
     pub clock: DaemonClock,
     pub execution: Execution,
-    pub observer: Option<mpsc::UnboundedSender<Observation>>,
+    pub observer: Option<Observer>,
 }
+
+/// Called by the commander with every [`Observation`]: on the commander's own task,
+/// so a harness can measure it (or, in a test, make it fail).
+pub type Observer = Box<dyn FnMut(Observation) + Send>;
 
 /// Something a harness may want to measure. A few per flight, so a large variant
 /// costs nothing.
@@ -350,25 +362,36 @@ pub async fn serve(
         config.gate.pipeline_stale_us,
         supervisor,
     ));
-    let commander = commander_task(
-        &config,
+    // The commander is a task of its own: a panic in it ends that task alone, and
+    // the select below then releases the roll like any other fault.
+    let StreamHandle {
+        held,
+        status: stream_rx,
+        stop: stream_stop,
+    } = stream;
+    let mut commander = tokio::spawn(commander_task(
+        commander_config(&config),
         clock,
         CommanderInputs {
             vehicle_rx,
             status_rx,
             decision_rx,
+            stream_rx: stream_rx.clone(),
             observer,
             heartbeat: commander_beat,
             ground: ground_feed,
         },
-        &stream,
-    );
+        held,
+    ));
     // Every select in the daemon is biased: branches are polled in the order
     // written, so a simulated flight (one thread, simulated time) takes the same
     // path on every run. Rare events come first, so a busy stream cannot starve them.
     let ended = tokio::select! {
         biased;
-        _ = commander => Ended::Fault("the commander ended".into()),
+        ended = &mut commander => Ended::Fault(match ended {
+            Err(e) if e.is_panic() => "the commander panicked".into(),
+            _ => "the commander ended".into(),
+        }),
         why = shutdown => {
             tracing::info!("shutdown requested ({why})");
             Ended::Requested(why)
@@ -386,7 +409,9 @@ pub async fn serve(
     };
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
     // centre, `release_repeats` times, each frame flushed, before faithd exits.
-    release_on_exit(&stream, &msp_endpoint, &config.manoeuvre).await;
+    release_on_exit(&stream_stop, &stream_rx, &msp_endpoint, &config).await;
+    commander.abort();
+    let _ = commander.await;
     if let Some(r) = &recorder {
         r.finish().await;
     }
@@ -450,29 +475,39 @@ impl Workers {
 fn stream_settings(config: &FaithdConfig) -> StreamSettings {
     let us = |v: i64| Duration::from_micros(v.max(1) as u64);
     StreamSettings {
-        neutral_us: config.manoeuvre.neutral_us.us(),
-        period: us(config.manoeuvre.resend_period_us),
+        roll_period: us(config.manoeuvre.resend_period_us),
         reply_timeout: us(config.command.msp_timeout_us),
         warmup_margin_us: config.command.warmup_margin_us,
         reconnect_min: us(config.mavlink.reconnect_min_us),
         reconnect_max: us(config.mavlink.reconnect_max_us),
         recheck: Duration::from_secs(5),
-        expect: Expectations::new(&config.gate, config.mavlink.autopilot_system_id),
+        expect: Expectations::new(
+            &config.gate,
+            &config.command,
+            config.mavlink.autopilot_system_id,
+        ),
+        roll_rxrange: config.command.roll_rxrange_us,
+        hold_bound: us(config.pipeline.decision.roll_duration_us + HOLD_MARGIN_US),
     }
 }
+
+/// How much longer than a roll lasts the stream holds it before it reverts to the
+/// centre on its own: the commander releases within a few milliseconds of the end.
+const HOLD_MARGIN_US: i64 = 250_000;
 
 /// Ends the stream with the centre and says in the journal what reached the wire.
 /// When the stream task is gone (it panicked) or does not answer, the port is opened
 /// afresh and the centre written from here.
 async fn release_on_exit(
-    stream: &StreamHandle,
+    stop: &tokio::sync::mpsc::Sender<StopRequest>,
+    status: &watch::Receiver<stream::StreamStatus>,
     endpoint: &Endpoint,
-    manoeuvre: &faithd_core::safety::manoeuvre::ManoeuvreConfig,
+    config: &FaithdConfig,
 ) {
-    let repeats = manoeuvre.release_repeats;
-    let facts = stream.status.borrow().facts;
+    let repeats = config.manoeuvre.release_repeats;
+    let facts = status.borrow().facts;
     let (done, answer) = tokio::sync::oneshot::channel();
-    let asked = stream.stop.try_send(StopRequest { repeats, done }).is_ok();
+    let asked = stop.try_send(StopRequest { repeats, done }).is_ok();
     let why = if asked {
         match tokio::time::timeout(Duration::from_secs(1), answer).await {
             Ok(Ok(Ok(n))) => {
@@ -491,7 +526,16 @@ async fn release_on_exit(
         return;
     };
     tracing::error!("roll channel release through the stream failed ({why}): writing it directly");
-    match stream::release_directly(endpoint, facts, manoeuvre.neutral_us.us(), repeats).await {
+    let period = Duration::from_micros(config.manoeuvre.resend_period_us as u64);
+    match stream::release_directly(
+        endpoint,
+        facts,
+        config.command.roll_rxrange_us,
+        repeats,
+        period,
+    )
+    .await
+    {
         Ok(n) => tracing::info!("roll channel released: {n} centre frames written to iNav"),
         Err(e) => tracing::error!(
             "roll channel release not written ({e}): iNav keeps faithd's last value until its MSP override times out"
@@ -499,56 +543,58 @@ async fn release_on_exit(
     }
 }
 
-/// The commander's view of the stream: what it holds, and whether a roll shows.
-struct RollCheck {
-    confirm: RollConfirm,
-    /// Latched fault: held until the pilot leaves AUTO.
-    fault: bool,
-}
-
 /// What the commander listens to, and its heartbeat.
 struct CommanderInputs {
     vehicle_rx: watch::Receiver<VehicleState>,
     status_rx: watch::Receiver<PipelineStatus>,
     decision_rx: watch::Receiver<Option<cycle::RollDecision>>,
-    observer: Option<mpsc::UnboundedSender<Observation>>,
+    stream_rx: watch::Receiver<stream::StreamStatus>,
+    observer: Option<Observer>,
     heartbeat: supervise::Heartbeat,
     /// Gate changes and rolls, for the ground station (a no-op without one).
     ground: GroundFeed,
 }
 
+/// The commander's configuration, from faithd.toml.
+fn commander_config(config: &FaithdConfig) -> CommanderConfig {
+    CommanderConfig {
+        gate: config.gate,
+        manoeuvre: config.manoeuvre,
+        roll_rxrange: config.command.roll_rxrange_us,
+        confirm_within_us: config.command.confirm_within_us,
+        decision_fresh_us: 2 * config.daemon.period_us.max(1),
+    }
+}
+
+/// The commander as a task: it moves values between the channels and the pure
+/// [`Commander`], which makes every decision, and says in the journal what each step
+/// changed. Woken four times per roll frame period (and at every input change), so
+/// a staleness limit is acted on within a few milliseconds.
 async fn commander_task(
-    config: &FaithdConfig,
+    rules: CommanderConfig,
     clock: DaemonClock,
     inputs: CommanderInputs,
-    stream: &StreamHandle,
+    held: watch::Sender<u16>,
 ) {
     let CommanderInputs {
         mut vehicle_rx,
         mut status_rx,
         mut decision_rx,
-        observer,
+        mut stream_rx,
+        mut observer,
         heartbeat,
         ground,
     } = inputs;
-    let mut commander = Commander::new(config.manoeuvre);
-    let mut stream_rx = stream.status.clone();
-    let mut check = RollCheck {
-        confirm: RollConfirm::new(config.command.confirm_within_us),
-        fault: false,
-    };
-    let mut last_report: Option<RollReport> = None;
-    // Woken four times per send period (and at every input change), so a re-send or
-    // a staleness limit is acted on at most a quarter period late.
-    let period = Duration::from_micros((config.manoeuvre.resend_period_us / 4).max(1000) as u64);
+    let mut commander = Commander::new(rules);
+    let period = Duration::from_micros((rules.manoeuvre.resend_period_us / 4).max(1000) as u64);
     let mut tick = tokio::time::interval(period);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut last_gate: Option<GateState> = None;
+    let mut last_report: Option<RollReport> = None;
     let mut last_observed_gate: Option<GateState> = None;
-    let mut request: Option<(i64, RollRequest, i64, faithd_core::decide::Decision)> = None;
-    // The newest event of the first roll call of the current unbroken run of calls.
-    let mut first_call_event_us: Option<i64> = None;
+    // The decision behind the newest roll call, for the observer and the ground.
+    let mut newest: Option<cycle::RollDecision> = None;
     loop {
+        let mut call = None;
         tokio::select! {
             biased;
             _ = tick.tick() => {}
@@ -556,147 +602,141 @@ async fn commander_task(
             Ok(()) = status_rx.changed() => {}
             Ok(()) = stream_rx.changed() => {}
             Ok(()) = decision_rx.changed() => {
-                let newest = *decision_rx.borrow_and_update();
-                if let Some(cycle::RollDecision { decision: d, last_event_us }) = newest
-                    && let Action::Roll { direction, duration_us } = d.action
+                let decided = *decision_rx.borrow_and_update();
+                if let Some(d) = decided
+                    && let Action::Roll { direction, duration_us } = d.decision.action
                 {
-                    request = Some((d.t_us, RollRequest { direction, duration_us }, last_event_us, d));
-                    tracing::debug!("roll requested: {d}");
+                    tracing::debug!("roll requested: {}", d.decision);
+                    call = Some(RollCall {
+                        t_us: d.decision.t_us,
+                        request: RollRequest { direction, duration_us },
+                        last_event_us: d.last_event_us,
+                    });
+                    newest = Some(d);
                 }
             }
         }
         heartbeat.beat();
         let now_us = clock.now_us();
         let vehicle = *vehicle_rx.borrow_and_update();
-        let status = *status_rx.borrow_and_update();
+        let pipeline = *status_rx.borrow_and_update();
         let streamed = *stream_rx.borrow_and_update();
-        if let Some(report) = streamed.last_report.filter(|r| Some(*r) != last_report) {
-            last_report = Some(report);
-            if let Verdict::Confirmed { after_us } =
-                check.confirm.report(report.roll_us, report.t_us)
-            {
-                tracing::info!(
-                    roll_us = report.roll_us,
-                    "roll in effect on the flight controller {} ms after it was commanded",
-                    after_us / 1000
-                );
-            }
-        }
-        if let Verdict::NotInEffect {
-            commanded_us,
-            reported_us,
-            waited_us,
-        } = check.confirm.check(now_us)
-        {
-            check.fault = true;
-            check.confirm.stop();
-            tracing::error!(
-                commanded_us,
-                ?reported_us,
-                "roll not in effect on the flight controller: commanded {commanded_us} us on roll, iNav reports {} for {} ms; closing the gate until the switch leaves AUTO",
-                reported_us.map_or("nothing".into(), |v| format!("{v} us")),
-                waited_us / 1000
-            );
-        }
+        let report = streamed.last_report.filter(|r| Some(*r) != last_report);
+        last_report = streamed.last_report.or(last_report);
         let path = CommandPathStatus {
             setup_refused: streamed.setup_refused,
+            setup_changed: streamed.setup_changed,
             ready_at_us: streamed.ready_at_us,
-            roll_not_in_effect: check.fault,
+            roll_not_in_effect: false,
             fc: streamed.fc,
         };
-        let gate = gate::evaluate(&config.gate, &vehicle, &status, &path, now_us);
-        if let Some(obs) = observer
-            .as_ref()
-            .filter(|_| last_observed_gate != Some(gate))
-        {
-            let _ = obs.send(Observation::Gate { t_us: now_us, gate });
-            last_observed_gate = Some(gate);
+        let step = commander.step(
+            now_us,
+            Inputs {
+                vehicle: &vehicle,
+                pipeline: &pipeline,
+                path: &path,
+                call,
+                report,
+            },
+        );
+        held.send_if_modified(|v| std::mem::replace(v, step.held_us) != step.held_us);
+        if last_observed_gate != Some(step.gate) {
+            if let Some(observe) = observer.as_mut() {
+                observe(Observation::Gate {
+                    t_us: now_us,
+                    gate: step.gate,
+                });
+            }
+            last_observed_gate = Some(step.gate);
         }
-        if check.fault && matches!(gate, GateState::Closed(Blocker::SwitchNotAuto { .. })) {
-            tracing::info!("switch out of AUTO: the roll fault is cleared");
-            check.fault = false;
+        for event in step.events {
+            tell(
+                &event,
+                now_us,
+                &clock,
+                newest.as_ref(),
+                &ground,
+                observer.as_mut(),
+            );
         }
-        if last_gate.map(|g| g.is_open()) != Some(gate.is_open())
-            || matches!((last_gate, gate), (Some(GateState::Closed(a)), GateState::Closed(b)) if std::mem::discriminant(&a) != std::mem::discriminant(&b))
-        {
+    }
+}
+
+/// One change of the commander in the journal, to the ground station and to a
+/// harness that watches.
+fn tell(
+    event: &CommanderEvent,
+    now_us: i64,
+    clock: &DaemonClock,
+    decision: Option<&cycle::RollDecision>,
+    ground: &GroundFeed,
+    observer: Option<&mut Observer>,
+) {
+    let unix_us = clock.unix_us(now_us);
+    match *event {
+        CommanderEvent::GateChanged { gate, was_open } => {
             match gate {
                 GateState::Open => tracing::info!("safety gate open: faithd may command roll"),
                 GateState::Closed(b) => tracing::info!("safety gate closed: {b}"),
             }
-            ground.notify(Notice::Gate {
-                gate,
-                was_open: last_gate.map(|g| g.is_open()),
-            });
-            last_gate = Some(gate);
+            ground.notify(Notice::Gate { gate, was_open });
         }
-        // A roll decision is acted on only while it is fresh.
-        let fresh = request.filter(|(t, _, _, _)| now_us - t <= 2 * config.daemon.period_us.max(1));
-        first_call_event_us = fresh.and(first_call_event_us.or(fresh.map(|(_, _, e, _)| e)));
-        let step = commander.step(now_us, &gate, fresh.map(|(_, r, _, _)| r));
-        if let Some(t) = step.transition {
-            match t {
-                Transition::Started {
-                    direction,
-                    duration_us,
-                } => {
-                    if let (Some(obs), Some((_, _, last_event_us, decision))) = (&observer, fresh) {
-                        let _ = obs.send(Observation::ManoeuvreStarted {
-                            last_event_us,
-                            first_call_event_us: first_call_event_us.unwrap_or(last_event_us),
-                            started_us: now_us,
-                            decision,
-                        });
-                    }
-                    ground.notify(Notice::Roll {
-                        direction,
-                        ttc_s: fresh
-                            .and_then(|(_, _, _, d)| d.obstacle)
-                            .map(|o| o.mean_ttc_s),
-                    });
-                    request = None;
-                    first_call_event_us = None;
-                    check
-                        .confirm
-                        .start(commander.roll_value_us(direction), now_us);
-                    // The Unix time lets a bench or a test line the decision up with
-                    // what the flight controller reports.
-                    tracing::info!(
-                        ?direction,
-                        roll_us = commander.roll_value_us(direction),
-                        duration_ms = duration_us / 1000,
-                        unix_us = clock.unix_us(now_us),
-                        "manoeuvre started: roll {direction:?}"
-                    )
-                }
-                Transition::Completed => {
-                    check.confirm.stop();
-                    tracing::info!(
-                        unix_us = clock.unix_us(now_us),
-                        "manoeuvre completed: roll released"
-                    )
-                }
-                Transition::Cut => {
-                    check.confirm.stop();
-                    tracing::warn!(
-                        unix_us = clock.unix_us(now_us),
-                        "manoeuvre cut: roll released because {}",
-                        match gate {
-                            GateState::Closed(b) => b.to_string(),
-                            GateState::Open => "?".into(),
-                        }
-                    )
-                }
+        CommanderEvent::RollStarted {
+            direction,
+            value_us,
+            duration_us,
+            last_event_us,
+            first_call_event_us,
+        } => {
+            if let (Some(observe), Some(d)) = (observer, decision) {
+                observe(Observation::ManoeuvreStarted {
+                    last_event_us,
+                    first_call_event_us,
+                    started_us: now_us,
+                    decision: d.decision,
+                });
             }
+            ground.notify(Notice::Roll {
+                direction,
+                ttc_s: decision
+                    .and_then(|d| d.decision.obstacle)
+                    .map(|o| o.mean_ttc_s),
+            });
+            // The Unix time lets a bench or a test line the decision up with what the
+            // flight controller reports.
+            tracing::info!(
+                ?direction,
+                roll_us = value_us,
+                duration_ms = duration_us / 1000,
+                unix_us,
+                "manoeuvre started: roll {direction:?}"
+            )
         }
-        if let Some(cmd) = step.command {
-            tracing::debug!(?cmd, "command");
-            let held_us = match cmd {
-                Command::Roll { value_us, .. } => value_us,
-                Command::Release { .. } => config.manoeuvre.neutral_us.us(),
-            };
-            stream
-                .held
-                .send_if_modified(|v| std::mem::replace(v, held_us) != held_us);
+        CommanderEvent::RollCompleted => {
+            tracing::info!(unix_us, "manoeuvre completed: roll released")
+        }
+        CommanderEvent::RollCut { because } => {
+            tracing::warn!(unix_us, "manoeuvre cut: roll released because {because}")
+        }
+        CommanderEvent::RollConfirmed { roll_us, after_us } => tracing::info!(
+            roll_us,
+            "roll in effect on the flight controller {} ms after it was commanded",
+            after_us / 1000
+        ),
+        CommanderEvent::RollNotInEffect {
+            commanded_us,
+            reported_us,
+            waited_us,
+        } => tracing::error!(
+            commanded_us,
+            ?reported_us,
+            "roll not in effect on the flight controller: commanded {commanded_us} us on roll, iNav reports {} for {} ms; closing the gate until the switch leaves AUTO",
+            reported_us.map_or("nothing".into(), |v| format!("{v} us")),
+            waited_us / 1000
+        ),
+        CommanderEvent::FaultCleared => {
+            tracing::info!("switch out of AUTO: the roll fault is cleared")
         }
     }
 }

@@ -148,6 +148,11 @@ const REPORT_PERIOD: Duration = Duration::from_secs(5);
 /// unless `forward_rc_override`.
 const STICK_INPUT_IDS: [u32; 2] = [70, 69];
 
+/// RADIO_STATUS: a telemetry radio's buffer report. iNav paces its whole MAVLink
+/// telemetry on the first one it hears (telemetry/mavlink.c), and could then starve
+/// faithd's gate of ATTITUDE and RC_CHANNELS: never forwarded.
+const RADIO_STATUS_ID: u32 = 109;
+
 /// One MAVLink frame exactly as it was on the wire (its sender's ids and sequence
 /// number, its checksum and any signature): forwarded unchanged, so the ground
 /// station sees the autopilot as if it were wired to it, and the autopilot sees the
@@ -276,6 +281,8 @@ fn short_reason(blocker: &Blocker) -> String {
         Blocker::SwitchMissing { channel } => format!("no switch channel {channel}"),
         Blocker::SwitchNotAuto { .. } => "switch MANUAL".into(),
         Blocker::RadioLost => "pilot's radio lost".into(),
+        Blocker::NoRadioStatus => "no SYS_STATUS yet".into(),
+        Blocker::RadioStatusStale { age_us } => format!("SYS_STATUS stale {} ms", age_us / 1000),
         Blocker::NoHeartbeat => "no HEARTBEAT yet".into(),
         Blocker::HeartbeatStale { age_us } => format!("HEARTBEAT stale {} ms", age_us / 1000),
         Blocker::Disarmed => "disarmed".into(),
@@ -296,10 +303,12 @@ fn short_reason(blocker: &Blocker) -> String {
             problem: PipelineProblem::NoAttitude,
         } => "no attitude for the flow".into(),
         Blocker::FcSetupRefused => "FC set-up refused".into(),
+        Blocker::FcSetupChanged => "FC set-up changed in flight".into(),
         Blocker::CommandPortDown => "MSP port down".into(),
         Blocker::NoFcStatus => "no FC status yet".into(),
         Blocker::FcStatusStale { age_us } => format!("FC status stale {} ms", age_us / 1000),
         Blocker::OverrideModeOff => "MSP RC OVERRIDE mode off".into(),
+        Blocker::AngleModeOff => "iNav not in ANGLE".into(),
         Blocker::OverrideWarmingUp { .. } => "MSP stream warming up".into(),
         Blocker::RollNotInEffect => "roll not in effect on FC".into(),
     }
@@ -632,6 +641,9 @@ fn uplink(config: &GroundConfig, mavlink: &MavlinkConfig, raw: &MAVLinkMessageRa
         Some(_) if STICK_INPUT_IDS.contains(&id) && !config.forward_rc_override => {
             Some("stick input, ground.forward_rc_override = false")
         }
+        Some(_) if id == RADIO_STATUS_ID => Some(
+            "RADIO_STATUS makes iNav pace its telemetry on the ground radio's buffer, which could starve faithd of ATTITUDE",
+        ),
         // A frame that claims the vehicle's own system (the autopilot's, or faithd's)
         // is an echo or an impostor, never the ground station's.
         Some(_)
@@ -1013,6 +1025,22 @@ mod tests {
             ))
             .await
             .unwrap();
+        // A SiK radio on the ground station's side reports its buffer.
+        let radio = MavHeader {
+            system_id: 51,
+            component_id: 68,
+            sequence: 0,
+        };
+        station
+            .write_all(&frame_bytes(
+                radio,
+                &MavMessage::RADIO_STATUS(mavlink::dialects::common::RADIO_STATUS_DATA {
+                    txbuf: 10,
+                    ..Default::default()
+                }),
+            ))
+            .await
+            .unwrap();
         tokio::time::sleep(Duration::from_millis(500)).await;
         let forwarded = uplink.try_recv().expect("the command is forwarded");
         assert!(matches!(
@@ -1021,7 +1049,7 @@ mod tests {
         ));
         assert_eq!(forwarded.header().system_id, 255);
         assert!(uplink.try_recv().is_err(), "nothing else");
-        assert_eq!(feed.counters.uplink_refused.load(Ordering::Relaxed), 2);
+        assert_eq!(feed.counters.uplink_refused.load(Ordering::Relaxed), 3);
     }
 
     #[tokio::test(start_paused = true)]

@@ -33,6 +33,8 @@ pub struct Controls {
     pub system_status: AtomicU8,
     /// The pilot's receiver as SYS_STATUS reports it.
     pub radio_healthy: AtomicBool,
+    /// SYS_STATUS sent at all (iNav: mavlink_ext_status_rate = 10, every 120 ms).
+    pub send_sys_status: AtomicBool,
     /// iNav ignores faithd's frames although its set-up reads right (a fault the
     /// roll confirmation must catch).
     pub override_ignored: AtomicBool,
@@ -49,6 +51,7 @@ impl Default for Controls {
             roll_us: AtomicU16::new(PILOT_ROLL_US),
             system_status: AtomicU8::new(4),
             radio_healthy: AtomicBool::new(true),
+            send_sys_status: AtomicBool::new(true),
             override_ignored: AtomicBool::new(false),
         }
     }
@@ -186,7 +189,8 @@ impl MockAutopilot {
                 }
             }));
         }
-        // Telemetry: ATTITUDE at 50 Hz, RC_CHANNELS at 50 Hz, HEARTBEAT at 5 Hz.
+        // Telemetry: ATTITUDE at 50 Hz, RC_CHANNELS at 50 Hz, HEARTBEAT at 5 Hz, SYS_STATUS
+        // every 120 ms.
         {
             let (master, stop, controls, rc_sent) = (
                 master.clone(),
@@ -222,6 +226,8 @@ impl MockAutopilot {
                             ),
                         ));
                         seq = seq.wrapping_add(1);
+                    }
+                    if tick.is_multiple_of(6) && controls.send_sys_status.load(Ordering::Relaxed) {
                         out.extend(encode(
                             seq,
                             &inav_mavlink::sys_status(

@@ -4,7 +4,7 @@ on UDP.
 Listens on 127.0.0.1:PORT and answers whoever talks to it (faithd) as iNav 9.1 does
 on its MAVLink port at the rates of the committed set-up (every 40 ms ATTITUDE and
 RC_CHANNELS with the pilot's switch at SWITCH_US; HEARTBEAT armed once a second;
-SYS_STATUS with the RC receiver healthy). With --impostor, a second component of
+SYS_STATUS with the RC receiver healthy every 120 ms, mavlink_ext_status_rate = 10). With --impostor, a second component of
 the same system (154, a gimbal) also sends RC_CHANNELS with the switch in AUTO and
 an armed HEARTBEAT on the same link, as a misbehaving peripheral would. With
 --manual-after=S the pilot's switch goes to MANUAL (1000 us) S seconds in. Records
@@ -76,6 +76,7 @@ def main():
             rc_channels(mav, boot_ms, switch_us)
             if tick % 25 == 0:
                 heartbeat(mav)
+            if tick % 3 == 0:
                 mav.sys_status_send(rc, rc, rc, 100, 11100, -1, -1, 0, 0, 0, 0, 0, 0)
             if impostor:
                 mav.srcComponent = 154

@@ -66,6 +66,11 @@ pub struct CheckFcArgs {
     /// One JSON object instead of the table.
     #[arg(long)]
     json: bool,
+    /// Do not read iNav's rxrange. It is read in iNav's CLI (no MSP command reports
+    /// it), which iNav leaves only by rebooting: without this flag a disarmed flight
+    /// controller reboots at the end of the check.
+    #[arg(long)]
+    no_cli: bool,
 }
 
 /// `faithd replay`: a daemon recording checked against its flight (`--windows`), or
@@ -212,8 +217,17 @@ pub fn check_config(path: &Path) -> Result<(), Failure> {
 pub fn check_fc(args: &CheckFcArgs) -> Result<(), Failure> {
     use faithd::command::fc_check;
     let config = FaithdConfig::load(&args.config).map_err(Failure::refused)?;
-    let expect = fc_check::Expectations::new(&config.gate, config.mavlink.autopilot_system_id);
-    let report = fc_check::check_over_msp(&config.command, &expect).map_err(|e| {
+    let expect = fc_check::Expectations::new(
+        &config.gate,
+        &config.command,
+        config.mavlink.autopilot_system_id,
+    );
+    if !args.no_cli && !args.json {
+        println!(
+            "reading rxrange in iNav's CLI: the flight controller reboots when the check leaves it (--no-cli skips this)"
+        );
+    }
+    let report = fc_check::check_over_msp(&config.command, &expect, !args.no_cli).map_err(|e| {
         Failure::failed(format!(
             "cannot read the flight controller on {}: {e}",
             config.command.msp_port()
@@ -237,8 +251,10 @@ fn print_fc_report(report: &faithd::command::fc_check::FcReport) {
             None => println!("ok    {}: {}", i.what, i.found),
             Some(p) => {
                 println!("FAIL  {}: {}: {p}", i.what, i.found);
-                if let Some(fix) = &i.fix {
-                    println!("      fix (iNav CLI): {fix}");
+                match i.fix.as_deref() {
+                    Some(fix) if fix.starts_with("in faithd.toml") => println!("      fix {fix}"),
+                    Some(fix) => println!("      fix (iNav CLI): {fix}"),
+                    None => {}
                 }
             }
         }

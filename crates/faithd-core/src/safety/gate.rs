@@ -25,6 +25,8 @@ pub struct GateConfig {
     pub auto_max_us: PwmUs,
     /// RC_CHANNELS older than this closes the gate.
     pub rc_stale_us: i64,
+    /// SYS_STATUS (the pilot's radio health) older than this closes the gate.
+    pub radio_stale_us: i64,
     /// ATTITUDE older than this closes the gate (derotation needs it).
     pub attitude_stale_us: i64,
     /// HEARTBEAT older than this closes the gate (armed state unknown).
@@ -43,10 +45,11 @@ impl Default for GateConfig {
             auto_min_us: const { PwmUs::constant(1700) },
             auto_max_us: const { PwmUs::constant(2100) },
             rc_stale_us: 300_000,
+            radio_stale_us: 300_000,
             attitude_stale_us: 100_000,
             heartbeat_stale_us: 2_500_000,
             pipeline_stale_us: 100_000,
-            fc_status_stale_us: 100_000,
+            fc_status_stale_us: 250_000,
         }
     }
 }
@@ -82,6 +85,7 @@ impl GateConfig {
         })?;
         for (v, key) in [
             (g.rc_stale_us, "gate.rc_stale_us"),
+            (g.radio_stale_us, "gate.radio_stale_us"),
             (g.attitude_stale_us, "gate.attitude_stale_us"),
             (g.heartbeat_stale_us, "gate.heartbeat_stale_us"),
             (g.pipeline_stale_us, "gate.pipeline_stale_us"),
@@ -124,6 +128,10 @@ pub struct FcStatus {
     pub failsafe: bool,
     /// iNav's MSP RC OVERRIDE mode (on only with the pilot's switch in AUTO).
     pub override_on: bool,
+    /// iNav flies in ANGLE mode (fc/fc_core.c sets the flight mode; MSP2_INAV_STATUS
+    /// reports it, fc/fc_msp_box.c). Outside it the roll stick commands a rotation
+    /// rate (flight/pid.c): 1.5 s of a deflected stick rolls the vehicle over.
+    pub angle: bool,
 }
 
 /// What the roll command path (the MSP stream to iNav) last reported.
@@ -131,6 +139,9 @@ pub struct FcStatus {
 pub struct CommandPathStatus {
     /// The flight controller's set-up was read and refused (the journal has why).
     pub setup_refused: bool,
+    /// The set-up changed in flight (the journal has what): faithd stopped
+    /// streaming until it is read and judged again.
+    pub setup_changed: bool,
     /// Daemon time from which iNav applies the stream: the stream started plus
     /// iNav's own recovery delay. `None` while the port is closed or unchecked.
     pub ready_at_us: Option<i64>,
@@ -180,6 +191,7 @@ pub enum Blocker {
         problem: PipelineProblem,
     },
     FcSetupRefused,
+    FcSetupChanged,
     CommandPortDown,
     NoFcStatus,
     FcStatusStale {
@@ -187,6 +199,14 @@ pub enum Blocker {
     },
     /// iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll.
     OverrideModeOff,
+    /// iNav is not in ANGLE mode: a roll stick would command a rate, not a bank.
+    AngleModeOff,
+    /// No SYS_STATUS has said whether the pilot's radio reaches the autopilot.
+    NoRadioStatus,
+    /// SYS_STATUS stopped: the radio's last known health is too old to trust.
+    RadioStatusStale {
+        age_us: i64,
+    },
     OverrideWarmingUp {
         remaining_us: i64,
     },
@@ -228,6 +248,19 @@ impl std::fmt::Display for Blocker {
                 f,
                 "iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll"
             ),
+            Blocker::AngleModeOff => write!(
+                f,
+                "iNav is not in ANGLE mode: a roll stick would command a rotation rate, not a bank (put ANGLE on the AUTO switch: `faithd check-fc`)"
+            ),
+            Blocker::NoRadioStatus => write!(
+                f,
+                "no SYS_STATUS received yet: the pilot's radio health is unknown"
+            ),
+            Blocker::RadioStatusStale { age_us } => write!(
+                f,
+                "SYS_STATUS stale ({} ms): the pilot's radio health is unknown",
+                age_us / 1000
+            ),
             Blocker::NoHeartbeat => write!(f, "no HEARTBEAT received yet"),
             Blocker::HeartbeatStale { age_us } => {
                 write!(f, "HEARTBEAT stale ({} ms)", age_us / 1000)
@@ -252,6 +285,10 @@ impl std::fmt::Display for Blocker {
                     "flight controller set-up refused (see `faithd check-fc`)"
                 )
             }
+            Blocker::FcSetupChanged => write!(
+                f,
+                "the flight controller's set-up changed in flight (the journal says what): faithd reads it again before it commands"
+            ),
             Blocker::CommandPortDown => write!(f, "MSP command port not streaming"),
             Blocker::OverrideWarmingUp { remaining_us } => write!(
                 f,
@@ -316,6 +353,9 @@ fn command_blocker(
     if command.setup_refused {
         return Some(Blocker::FcSetupRefused);
     }
+    if command.setup_changed {
+        return Some(Blocker::FcSetupChanged);
+    }
     let Some(ready_at_us) = command.ready_at_us else {
         return Some(Blocker::CommandPortDown);
     };
@@ -333,6 +373,9 @@ fn command_blocker(
     }
     if !fc.armed {
         return Some(Blocker::Disarmed);
+    }
+    if !fc.angle {
+        return Some(Blocker::AngleModeOff);
     }
     if !fc.override_on {
         return Some(Blocker::OverrideModeOff);
@@ -371,8 +414,15 @@ fn first_blocker(
     if !(config.auto_min_us.us()..=config.auto_max_us.us()).contains(&value_us) {
         return Some(Blocker::SwitchNotAuto { value_us });
     }
-    if vehicle.radio.is_some_and(|r| !r.healthy) {
+    let Some(radio) = &vehicle.radio else {
+        return Some(Blocker::NoRadioStatus);
+    };
+    if !radio.healthy {
         return Some(Blocker::RadioLost);
+    }
+    let age_us = now_us - radio.t_us;
+    if age_us > config.radio_stale_us {
+        return Some(Blocker::RadioStatusStale { age_us });
     }
     let Some(hb) = &vehicle.heartbeat else {
         return Some(Blocker::NoHeartbeat);
@@ -420,9 +470,11 @@ mod tests {
         armed: true,
         failsafe: false,
         override_on: true,
+        angle: true,
     };
     const READY: CommandPathStatus = CommandPathStatus {
         setup_refused: false,
+        setup_changed: false,
         ready_at_us: Some(0),
         roll_not_in_effect: false,
         fc: Some(FC_OK),
@@ -440,6 +492,13 @@ mod tests {
                     ..READY
                 },
                 "fc_setup_refused",
+            ),
+            (
+                CommandPathStatus {
+                    setup_changed: true,
+                    ..READY
+                },
+                "fc_setup_changed",
             ),
             (
                 CommandPathStatus {
@@ -466,7 +525,7 @@ mod tests {
             (
                 CommandPathStatus {
                     fc: Some(FcStatus {
-                        t_us: now - 150_000,
+                        t_us: now - 300_000,
                         ..FC_OK
                     }),
                     ..READY
@@ -502,6 +561,16 @@ mod tests {
                     ..READY
                 },
                 "override_mode_off",
+            ),
+            (
+                CommandPathStatus {
+                    fc: Some(FcStatus {
+                        angle: false,
+                        ..FC_OK
+                    }),
+                    ..READY
+                },
+                "angle_mode_off",
             ),
         ];
         for (path, kind) in cases {
@@ -559,7 +628,7 @@ mod tests {
         let cfg = GateConfig::default();
         let now = NOW;
         type Breaker = fn(&mut VehicleState, &mut PipelineStatus);
-        let cases: [(Breaker, &str); 14] = [
+        let cases: [(Breaker, &str); 16] = [
             (|v, _| v.link_up = false, "link_down"),
             (|v, _| v.rc = None, "no_rc"),
             (|v, _| v.rc.as_mut().unwrap().t_us -= 400_000, "rc_stale"),
@@ -584,6 +653,11 @@ mod tests {
             (
                 |v, _| v.radio.as_mut().unwrap().healthy = false,
                 "radio_lost",
+            ),
+            (|v, _| v.radio = None, "no_radio_status"),
+            (
+                |v, _| v.radio.as_mut().unwrap().t_us -= 400_000,
+                "radio_status_stale",
             ),
             (|v, _| v.last_attitude_us = None, "no_attitude"),
             (

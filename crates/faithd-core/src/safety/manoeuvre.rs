@@ -1,35 +1,39 @@
-//! The avoidance manoeuvre as a state machine: idle, rolling, releasing, cooling down.
+//! One avoidance roll as a state machine: idle, rolling, cooling down.
 //!
-//! The commander is stepped by the daemon at every send period and whenever the gate
-//! or a decision changes; each step returns at most one command for the sink. It
-//! never commands while the gate is closed, releases the roll channel the moment
-//! the gate closes mid-roll, re-sends the roll every `resend_period_us` so the
-//! autopilot does not time it out, and ends every roll with an explicit release.
-//! Pure: time comes in as an argument.
+//! A roll starts only through an open gate and outside the cool-down, lasts its
+//! duration, and ends the moment the gate closes. Its output is the value the roll
+//! channel must hold now: iNav's centre, or the centre plus or minus the deflection.
+//! Pure: time comes in as an argument. [`super::commander`] wraps it with the rules
+//! around it (the gate, fresh decisions, the roll check).
 
 use serde::{Deserialize, Serialize};
 
-use super::gate::GateState;
-use super::rc::{PwmUs, RcChannel};
+use super::rc::{NEUTRAL_US, RcChannel};
 use crate::decide::RollDirection;
 use crate::invalid::{Invalid, check};
+
+/// iNav's serial task runs at 100 Hz and serves one MSP command per port per run
+/// (fc/fc_tasks.c TASK_SERIAL; msp/msp_serial.c "process one command at a time"):
+/// faithd sends one command per slot of this length, half of what the port serves.
+pub const MSP_SLOT_US: i64 = 20_000;
+
+/// iNav drops the MSP override's signal when no frame came for this long (rx/msp.c,
+/// `rxSignalTimeout = DELAY_5_HZ`).
+pub const INAV_MSP_SIGNAL_TIMEOUT_US: i64 = 200_000;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ManoeuvreConfig {
     /// RC channel (1-based, iNav's order; AETR puts roll on 1) the roll is sent on.
     pub roll_channel: RcChannel,
-    /// Stick centre.
-    pub neutral_us: PwmUs,
-    /// Roll stick deflection from centre, microseconds (300 is 60% of full stick;
-    /// in iNav's ANGLE mode that is 60% of max_angle_inclination_rll).
+    /// Roll stick deflection from iNav's centre (1500), microseconds (300 is 60% of
+    /// full stick; in iNav's ANGLE mode that is 60% of max_angle_inclination_rll).
     pub deflection_us: u16,
-    /// True when a positive deflection rolls left (a reversed channel).
-    pub reversed: bool,
-    /// Re-send period of the override while rolling, microseconds.
+    /// How often the MSP stream sends the roll frame (the centre while idle): a whole
+    /// number of MSP slots, at least two, so the stream's other requests fit.
     pub resend_period_us: i64,
-    /// How many times the release is sent (one per resend period), so that one lost
-    /// frame cannot leave the stick deflected.
+    /// How many times the centre is written when faithd stops, one period apart, so
+    /// that one lost frame cannot leave the stick deflected.
     pub release_repeats: u32,
     /// No new roll for this long after a roll ends or is cut.
     pub cooldown_us: i64,
@@ -39,19 +43,31 @@ impl Default for ManoeuvreConfig {
     fn default() -> Self {
         Self {
             roll_channel: const { RcChannel::constant(1) },
-            neutral_us: const { PwmUs::constant(1500) },
             deflection_us: 300,
-            reversed: false,
-            resend_period_us: 20_000,
+            resend_period_us: 2 * MSP_SLOT_US,
             release_repeats: 3,
             cooldown_us: 1_000_000,
         }
     }
 }
 
+/// Keys `[manoeuvre]` once had, and why they are refused now: a config that still
+/// sets them is told the reason, not "unknown field".
+pub const REMOVED_KEYS: [(&str, &str); 2] = [
+    (
+        "neutral_us",
+        "it was removed: iNav's stick centre is always 1500 (fc/fc_core.c), and any other centre is a standing bank while the switch is in AUTO",
+    ),
+    (
+        "reversed",
+        "it was removed: iNav has no RC reversal (a value above 1500 always rolls right), so a reversed roll would only mirror every roll toward the obstacle",
+    ),
+];
+
 impl ManoeuvreConfig {
     /// `[manoeuvre]`: roll on iNav's channel 1, a deflection that keeps the stick in
-    /// 1000..2000, resend and release counts the stream can keep.
+    /// 1000..2000, a roll frame period the MSP slots can carry and iNav does not time
+    /// out, release and cool-down counts the stream can keep.
     pub fn validate(&self) -> Result<(), Invalid> {
         let m = self;
         check(m.roll_channel.get() == 1, "manoeuvre.roll_channel", || {
@@ -60,28 +76,33 @@ impl ManoeuvreConfig {
                 m.roll_channel
             )
         })?;
-        let neutral_us = m.neutral_us.us();
         check(
-            (1000..=2000).contains(&neutral_us),
-            "manoeuvre.neutral_us",
-            || format!("must be 1000..2000, got {neutral_us}"),
-        )?;
-        check(
-            (1..=500).contains(&m.deflection_us)
-                && neutral_us - m.deflection_us >= 1000
-                && neutral_us + m.deflection_us <= 2000,
+            (1..=500).contains(&m.deflection_us),
             "manoeuvre.deflection_us",
             || {
                 format!(
-                    "must be 1..500 and keep the stick within 1000..2000, got {}",
+                    "must be 1..500 (the stick stays within 1000..2000 about iNav's centre 1500), got {}",
                     m.deflection_us
                 )
             },
         )?;
+        let max_period_us = INAV_MSP_SIGNAL_TIMEOUT_US / 2;
         check(
-            (5_000..=500_000).contains(&m.resend_period_us),
+            m.resend_period_us >= 2 * MSP_SLOT_US
+                && m.resend_period_us <= max_period_us
+                && m.resend_period_us % MSP_SLOT_US == 0,
             "manoeuvre.resend_period_us",
-            || format!("must be 5 to 500 ms, got {}", m.resend_period_us),
+            || {
+                format!(
+                    "must be a multiple of {} ms from {} to {} ms: iNav serves one MSP command per port every 10 ms and faithd uses at most half of that (one command per {} ms, the roll frame every other one at most), and iNav drops the override after {} ms without a frame; got {}",
+                    MSP_SLOT_US / 1000,
+                    2 * MSP_SLOT_US / 1000,
+                    max_period_us / 1000,
+                    MSP_SLOT_US / 1000,
+                    INAV_MSP_SIGNAL_TIMEOUT_US / 1000,
+                    m.resend_period_us
+                )
+            },
         )?;
         check(
             (1..=50).contains(&m.release_repeats),
@@ -94,24 +115,31 @@ impl ManoeuvreConfig {
             || format!("must be 0 to 60 s, got {}", m.cooldown_us),
         )
     }
+
+    /// The roll channel's value for a roll in `direction` (iNav: above 1500 rolls
+    /// right).
+    pub fn roll_value_us(&self, direction: RollDirection) -> u16 {
+        match direction {
+            RollDirection::Right => NEUTRAL_US + self.deflection_us,
+            RollDirection::Left => NEUTRAL_US - self.deflection_us,
+        }
+    }
 }
 
-/// What the sink must put on the wire now.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case", tag = "kind")]
-pub enum Command {
-    /// Hold the roll channel at this value.
-    Roll { channel: u8, value_us: u16 },
-    /// Give the roll channel back to the pilot.
-    Release { channel: u8 },
+/// A roll the pipeline asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollRequest {
+    pub direction: RollDirection,
+    pub duration_us: i64,
 }
 
-/// Why the commander changed state: one log line each.
+/// Why the manoeuvre changed state: one log line each.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "snake_case", tag = "kind")]
 pub enum Transition {
     Started {
         direction: RollDirection,
+        value_us: u16,
         duration_us: i64,
     },
     Completed,
@@ -122,38 +150,18 @@ pub enum Transition {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum State {
     Idle,
-    Rolling {
-        value_us: u16,
-        end_us: i64,
-        next_send_us: i64,
-    },
-    Releasing {
-        remaining: u32,
-        next_send_us: i64,
-    },
+    Rolling { value_us: u16, end_us: i64 },
 }
 
-/// A roll the pipeline asked for.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RollRequest {
-    pub direction: RollDirection,
-    pub duration_us: i64,
-}
-
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Step {
-    pub command: Option<Command>,
-    pub transition: Option<Transition>,
-}
-
+/// The roll in progress, if any, and the cool-down after it.
 #[derive(Clone, Debug)]
-pub struct Commander {
+pub struct Manoeuvre {
     config: ManoeuvreConfig,
     state: State,
     cooldown_until_us: i64,
 }
 
-impl Commander {
+impl Manoeuvre {
     pub fn new(config: ManoeuvreConfig) -> Self {
         Self {
             config,
@@ -166,115 +174,57 @@ impl Commander {
         matches!(self.state, State::Rolling { .. })
     }
 
-    /// Stick value for a roll in `direction`.
-    pub fn roll_value_us(&self, direction: RollDirection) -> u16 {
-        let c = &self.config;
-        let right = matches!(direction, RollDirection::Right) != c.reversed;
-        if right {
-            c.neutral_us.us().saturating_add(c.deflection_us)
-        } else {
-            c.neutral_us.us().saturating_sub(c.deflection_us)
+    /// The value the roll channel holds now: the roll's, or iNav's centre.
+    pub fn held_us(&self) -> u16 {
+        match self.state {
+            State::Rolling { value_us, .. } => value_us,
+            State::Idle => NEUTRAL_US,
         }
     }
 
-    /// Advances to `now_us`. `request` is the pipeline's newest roll decision, if any.
-    pub fn step(&mut self, now_us: i64, gate: &GateState, request: Option<RollRequest>) -> Step {
-        let channel = self.config.roll_channel.get();
+    /// Advances to `now_us` with the gate `open` or not; `request` is a fresh roll
+    /// decision, if the pipeline has one.
+    pub fn step(
+        &mut self,
+        now_us: i64,
+        open: bool,
+        request: Option<RollRequest>,
+    ) -> Option<Transition> {
         match self.state {
-            State::Rolling { .. } if !gate.is_open() => {
-                self.begin_release(now_us);
-                Step {
-                    command: Some(Command::Release { channel }),
-                    transition: Some(Transition::Cut),
-                }
+            State::Rolling { .. } if !open => {
+                self.end(now_us);
+                Some(Transition::Cut)
             }
             State::Rolling { end_us, .. } if now_us >= end_us => {
-                self.begin_release(now_us);
-                Step {
-                    command: Some(Command::Release { channel }),
-                    transition: Some(Transition::Completed),
-                }
+                self.end(now_us);
+                Some(Transition::Completed)
             }
-            State::Rolling {
-                value_us,
-                end_us,
-                next_send_us,
-            } => {
-                if now_us < next_send_us {
-                    return Step::default();
-                }
+            State::Rolling { .. } => None,
+            State::Idle => {
+                let r = request.filter(|_| open && now_us >= self.cooldown_until_us)?;
+                let value_us = self.config.roll_value_us(r.direction);
                 self.state = State::Rolling {
                     value_us,
-                    end_us,
-                    next_send_us: now_us + self.config.resend_period_us,
+                    end_us: now_us + r.duration_us,
                 };
-                Step {
-                    command: Some(Command::Roll { channel, value_us }),
-                    transition: None,
-                }
+                Some(Transition::Started {
+                    direction: r.direction,
+                    value_us,
+                    duration_us: r.duration_us,
+                })
             }
-            State::Releasing {
-                remaining,
-                next_send_us,
-            } => {
-                if now_us < next_send_us {
-                    return Step::default();
-                }
-                self.state = if remaining <= 1 {
-                    State::Idle
-                } else {
-                    State::Releasing {
-                        remaining: remaining - 1,
-                        next_send_us: now_us + self.config.resend_period_us,
-                    }
-                };
-                Step {
-                    command: Some(Command::Release { channel }),
-                    transition: None,
-                }
-            }
-            State::Idle => match request {
-                Some(r) if gate.is_open() && now_us >= self.cooldown_until_us => {
-                    let value_us = self.roll_value_us(r.direction);
-                    self.state = State::Rolling {
-                        value_us,
-                        end_us: now_us + r.duration_us,
-                        next_send_us: now_us + self.config.resend_period_us,
-                    };
-                    Step {
-                        command: Some(Command::Roll { channel, value_us }),
-                        transition: Some(Transition::Started {
-                            direction: r.direction,
-                            duration_us: r.duration_us,
-                        }),
-                    }
-                }
-                _ => Step::default(),
-            },
         }
     }
 
-    /// The first release goes out now; the repeats follow one period apart.
-    fn begin_release(&mut self, now_us: i64) {
+    fn end(&mut self, now_us: i64) {
         self.cooldown_until_us = now_us + self.config.cooldown_us;
-        self.state = if self.config.release_repeats <= 1 {
-            State::Idle
-        } else {
-            State::Releasing {
-                remaining: self.config.release_repeats - 1,
-                next_send_us: now_us + self.config.resend_period_us,
-            }
-        };
+        self.state = State::Idle;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::safety::gate::Blocker;
-
-    const OPEN: GateState = GateState::Open;
-    const CLOSED: GateState = GateState::Closed(Blocker::SwitchNotAuto { value_us: 1000 });
 
     fn right(duration_us: i64) -> Option<RollRequest> {
         Some(RollRequest {
@@ -283,132 +233,70 @@ mod tests {
         })
     }
 
-    /// Steps every `dt_us` from `from_us` to `to_us`, collecting commands.
-    fn run(
-        c: &mut Commander,
-        from_us: i64,
-        to_us: i64,
-        dt_us: i64,
-        gate: impl Fn(i64) -> GateState,
-        request: impl Fn(i64) -> Option<RollRequest>,
-    ) -> Vec<(i64, Command)> {
-        let mut out = Vec::new();
-        let mut t = from_us;
-        while t <= to_us {
-            if let Some(cmd) = c.step(t, &gate(t), request(t)).command {
-                out.push((t, cmd));
-            }
-            t += dt_us;
-        }
-        out
-    }
-
     #[test]
-    fn a_roll_lasts_its_duration_resent_every_period_then_released() {
-        let cfg = ManoeuvreConfig::default();
-        let mut c = Commander::new(cfg);
-        let sent = run(
-            &mut c,
-            0,
-            3_000_000,
-            1_000,
-            |_| OPEN,
-            |t| right(1_500_000).filter(|_| t == 0),
+    fn a_roll_holds_its_value_for_its_duration_then_the_centre() {
+        let mut m = Manoeuvre::new(ManoeuvreConfig::default());
+        assert_eq!(m.held_us(), 1500);
+        assert_eq!(
+            m.step(0, true, right(1_500_000)),
+            Some(Transition::Started {
+                direction: RollDirection::Right,
+                value_us: 1800,
+                duration_us: 1_500_000
+            })
         );
-        let rolls: Vec<_> = sent
-            .iter()
-            .filter(|(_, c)| matches!(c, Command::Roll { .. }))
-            .collect();
-        assert_eq!(rolls.first().unwrap().0, 0);
-        assert_eq!(rolls.last().unwrap().0, 1_480_000);
-        assert_eq!(rolls.len(), 75, "one every 20 ms over 1.5 s");
-        assert!(rolls.iter().all(|(_, c)| *c
-            == Command::Roll {
-                channel: 1,
-                value_us: 1800
-            }));
-        let releases: Vec<_> = sent
-            .iter()
-            .filter(|(_, c)| matches!(c, Command::Release { .. }))
-            .map(|(t, _)| *t)
-            .collect();
-        assert_eq!(releases, vec![1_500_000, 1_520_000, 1_540_000]);
+        assert_eq!(m.held_us(), 1800);
+        assert_eq!(m.step(1_499_999, true, None), None);
+        assert_eq!(m.held_us(), 1800);
+        assert_eq!(m.step(1_500_000, true, None), Some(Transition::Completed));
+        assert_eq!(m.held_us(), 1500);
     }
 
     #[test]
-    fn closing_gate_mid_roll_releases_at_once_and_nothing_follows_until_it_reopens() {
-        let mut c = Commander::new(ManoeuvreConfig {
+    fn a_closing_gate_cuts_the_roll_and_a_closed_one_starts_none() {
+        let mut m = Manoeuvre::new(ManoeuvreConfig {
             cooldown_us: 0,
             ..Default::default()
         });
-        let gate = |t: i64| {
-            if (500_000..900_000).contains(&t) {
-                CLOSED
-            } else {
-                OPEN
-            }
-        };
-        let sent = run(&mut c, 0, 2_000_000, 1_000, gate, |t| {
-            right(1_500_000).filter(|_| t == 0 || t == 600_000)
-        });
-        let first_release = sent
-            .iter()
-            .find(|(_, c)| matches!(c, Command::Release { .. }))
-            .unwrap();
-        assert_eq!(
-            first_release.0, 500_000,
-            "released in the step the gate closed"
-        );
-        assert!(
-            sent.iter()
-                .filter(|(t, _)| (500_000..900_000).contains(t))
-                .all(|(_, c)| matches!(c, Command::Release { .. })),
-            "{sent:?}"
-        );
-        assert!(
-            sent.iter().all(|(t, _)| *t < 900_000),
-            "the request made while closed is not replayed later"
-        );
-    }
-
-    #[test]
-    fn closed_gate_never_commands_a_roll() {
-        let mut c = Commander::new(ManoeuvreConfig::default());
-        let sent = run(
-            &mut c,
-            0,
-            1_000_000,
-            1_000,
-            |_| CLOSED,
-            |_| right(1_500_000),
-        );
-        assert!(sent.is_empty(), "{sent:?}");
+        assert_eq!(m.step(0, false, right(1_500_000)), None);
+        assert_eq!(m.held_us(), 1500);
+        m.step(10, true, right(1_500_000));
+        assert_eq!(m.step(500_000, false, None), Some(Transition::Cut));
+        assert_eq!(m.held_us(), 1500);
     }
 
     #[test]
     fn cooldown_blocks_the_next_roll() {
-        let cfg = ManoeuvreConfig::default();
-        let mut c = Commander::new(cfg);
-        let sent = run(&mut c, 0, 4_000_000, 10_000, |_| OPEN, |_| right(500_000));
-        let starts: Vec<_> = sent
-            .windows(2)
-            .filter(|w| {
-                matches!(w[0].1, Command::Release { .. }) && matches!(w[1].1, Command::Roll { .. })
-            })
-            .map(|w| w[1].0)
-            .collect();
-        // Rolls end at 0.5 s and released; the next may start at 1.5 s.
-        assert_eq!(starts[0], 1_500_000);
+        let mut m = Manoeuvre::new(ManoeuvreConfig::default());
+        m.step(0, true, right(500_000));
+        m.step(500_000, true, right(500_000));
+        assert!(!m.is_rolling());
+        assert_eq!(m.step(1_499_999, true, right(500_000)), None);
+        assert!(m.step(1_500_000, true, right(500_000)).is_some());
     }
 
     #[test]
-    fn left_and_reversed() {
-        let c = Commander::new(ManoeuvreConfig::default());
+    fn left_is_below_inavs_centre() {
+        let c = ManoeuvreConfig::default();
         assert_eq!(c.roll_value_us(RollDirection::Left), 1200);
-        let c = Commander::new(ManoeuvreConfig {
-            reversed: true,
-            ..Default::default()
-        });
-        assert_eq!(c.roll_value_us(RollDirection::Left), 1800);
+        assert_eq!(c.roll_value_us(RollDirection::Right), 1800);
+    }
+
+    #[test]
+    fn the_roll_frame_period_fits_the_msp_budget_and_inavs_timeout() {
+        for (period_us, ok) in [
+            (20_000, false),
+            (30_000, false),
+            (40_000, true),
+            (60_000, true),
+            (100_000, true),
+            (120_000, false),
+        ] {
+            let c = ManoeuvreConfig {
+                resend_period_us: period_us,
+                ..Default::default()
+            };
+            assert_eq!(c.validate().is_ok(), ok, "{period_us}");
+        }
     }
 }

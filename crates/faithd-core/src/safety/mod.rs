@@ -2,6 +2,7 @@
 //! it reads, and the manoeuvre state machine that obeys it. All pure; the daemon
 //! feeds them messages and time.
 
+pub mod commander;
 pub mod confirm;
 pub mod gate;
 pub mod manoeuvre;
