@@ -793,3 +793,208 @@ fn a_camera_of_another_size_stops_the_daemon_with_the_keys_to_change() {
     assert!(text.contains("pipeline.camera.width_px"), "{text}");
     assert!(text.contains("roll channel"), "{text}");
 }
+
+/// iNav's 100 Hz serial task serves one command per port per run: faithd uses at most
+/// half of that, one request at a time, the whole flight long (rolls included), and
+/// the board's 256-byte receive ring never loses a byte.
+#[test]
+fn the_msp_port_carries_at_most_half_of_what_inav_serves_over_a_whole_flight() {
+    let (mock, mut daemon) = start(Controls::default());
+    let first = wait_for_roll(&mock, &daemon, "budget");
+    // The first roll, the second approach (4 s later) and its roll.
+    assert!(
+        mock.msp.wait_for(Duration::from_secs(8), |m| m
+            .roll_after(first + Duration::from_secs(2))
+            .is_some()),
+        "no second roll:\n{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(1800));
+    assert!(daemon.stop().success());
+    let traffic = mock.msp.traffic.lock().unwrap().clone();
+    assert_eq!(traffic.bytes_lost, 0, "the receive ring overflowed");
+    let arrived: Vec<Instant> = traffic.arrived.iter().map(|(t, _)| *t).collect();
+    let served: Vec<Instant> = traffic.served.iter().map(|(t, _)| *t).collect();
+    let span = *arrived.last().unwrap() - arrived[0];
+    assert!(span > Duration::from_secs(6), "{span:?}");
+    // Commands per second at the port, over every one-second window.
+    let busiest = arrived
+        .iter()
+        .map(|t0| {
+            arrived
+                .iter()
+                .filter(|t| **t >= *t0 && **t < *t0 + Duration::from_secs(1))
+                .count()
+        })
+        .max()
+        .unwrap();
+    // Backlog: requests that reached the port minus those iNav answered.
+    let backlog = arrived
+        .iter()
+        .map(|t| {
+            arrived.iter().filter(|a| *a <= t).count() - served.iter().filter(|s| *s <= t).count()
+        })
+        .max()
+        .unwrap();
+    let mean_per_s = (arrived.len() - 1) as f64 / span.as_secs_f64();
+    eprintln!(
+        "measured: {} commands in {span:?} ({mean_per_s:.1} a second), at most {busiest} in any second, backlog at most {backlog}",
+        arrived.len()
+    );
+    assert!(mean_per_s <= 50.0, "{mean_per_s:.2} commands a second");
+    // A slot every 20 ms; the time a frame takes on the wire and the thread's
+    // scheduling move an arrival by a millisecond or two: 51 in one window at most.
+    assert!(busiest <= 51, "{busiest} commands in one second");
+    assert!(backlog <= 1, "{backlog} requests waiting at the port");
+    assert_eq!(served.len(), arrived.len(), "every request answered");
+}
+
+/// In iNav a roll stick outside ANGLE is a rotation rate: with ANGLE not on the
+/// pilot's switch, the gate never opens and iNav never uses a roll.
+#[test]
+fn without_angle_no_roll_is_ever_applied() {
+    use faithd::closed_loop::inav_msp::Setup;
+    // ANGLE on channel 7 (AUX3), which the pilot's radio holds low: ACRO.
+    let setup = Setup {
+        modes: vec![(0, 0, 0, 32, 48), (1, 1, 2, 32, 48), (2, 50, 1, 32, 48)],
+        ..Setup::default()
+    };
+    let mock = MockAutopilot::start_with(Arc::new(Controls::default()), setup);
+    let mut daemon = Daemon::start_mock(&mock, "");
+    assert!(
+        daemon.wait_for_log("decision: roll", Duration::from_secs(8)),
+        "the pipeline never wanted to roll:\n{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(1000));
+    let log = daemon.log();
+    assert!(daemon.stop().success());
+    // Refused when read (the switch can be in AUTO without ANGLE); the gate would
+    // close on iNav's status too (tested beside the gate).
+    assert!(log.contains("set-up refused"), "{log}");
+    assert!(log.contains("ANGLE on AUTO"), "{log}");
+    assert!(!log.contains("manoeuvre started"), "{log}");
+    assert_eq!(mock.first_roll(), None, "iNav used a roll outside ANGLE");
+    assert_eq!(
+        roll_frames_after(&mock.msp, Instant::now() - Duration::from_secs(60)),
+        0
+    );
+}
+
+/// iNav scales faithd's values by the receiver's calibration: aimed through the range
+/// faithd.toml names, they land on the microseconds meant; a range faithd was not
+/// told of makes the roll arrive wrong, and the check calls it a fault.
+#[test]
+fn a_calibrated_asymmetric_receiver_gets_the_roll_meant() {
+    use faithd::closed_loop::inav_msp::Setup;
+    let setup = Setup {
+        rxrange: [(990, 2030), (1000, 2000), (1000, 2000), (1000, 2000)],
+        ..Setup::default()
+    };
+    // Told: iNav uses exactly 1200 or 1800 in the roll, 1500 between.
+    let mock = MockAutopilot::start_with(Arc::new(Controls::default()), setup.clone());
+    let mut daemon = Daemon::start_mock(&mock, "[command]\nroll_rxrange_us = [990, 2030]\n");
+    let rolled = wait_for_roll(&mock, &daemon, "calibrated");
+    std::thread::sleep(ROLL + Duration::from_millis(300));
+    let log = daemon.log();
+    assert!(daemon.stop().success());
+    assert!(
+        log.contains("roll in effect on the flight controller"),
+        "{log}"
+    );
+    assert!(!log.contains("roll not in effect"), "{log}");
+    let used: Vec<u16> = mock
+        .msp
+        .roll_log
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|(t, _)| *t >= rolled)
+        .map(|(_, v)| *v)
+        .collect();
+    assert!(
+        used.iter().all(|v| is_roll(*v) || *v == CENTRE_US),
+        "iNav used {:?}",
+        used.iter()
+            .filter(|v| !is_roll(**v) && **v != CENTRE_US)
+            .collect::<Vec<_>>()
+    );
+    // Not told: faithd's 1800 arrives as 1788, its centre as 1490, and the roll is
+    // refused as not in effect.
+    let mock = MockAutopilot::start_with(Arc::new(Controls::default()), setup);
+    let mut daemon = Daemon::start_mock(&mock, "");
+    assert!(
+        daemon.wait_for_log("roll not in effect", Duration::from_secs(10)),
+        "{}",
+        daemon.log()
+    );
+    assert!(daemon.stop().success());
+    assert_eq!(mock.first_roll(), None);
+}
+
+/// iNav reads msp_override_channels on every frame: a configurator on another port
+/// that adds throttle would put faithd's centre on it. faithd notices within its
+/// traffic budget, stops streaming and closes the gate, naming what changed.
+#[test]
+fn a_set_up_changed_in_flight_stops_the_stream_and_closes_the_gate() {
+    let mock = MockAutopilot::start(Arc::new(Controls::default()));
+    let mut mock = mock;
+    let mut daemon = Daemon::start_mock(&mock, "");
+    assert!(
+        daemon.wait_for_log("MSP roll stream started", Duration::from_secs(5)),
+        "{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    mock.msp.change_setup(|s| s.msp_override_channels = 0b1001);
+    let changed = Instant::now();
+    assert!(
+        daemon.wait_for_log(
+            "set-up changed in flight (msp_override_channels is now 9, was 1)",
+            Duration::from_secs(3)
+        ),
+        "{}",
+        daemon.log()
+    );
+    let noticed = Instant::now();
+    std::thread::sleep(Duration::from_millis(1500));
+    let log = daemon.log();
+    assert!(daemon.stop().success());
+    eprintln!(
+        "measured: set-up change noticed within {:?}",
+        noticed - changed
+    );
+    // Refused when read again, with the fix.
+    assert!(log.contains("set msp_override_channels = 1"), "{log}");
+    // No frame after the change was noticed (give the one in flight a slot).
+    let late = mock
+        .msp
+        .frames
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|(t, _)| *t > noticed + SLOT)
+        .count();
+    assert_eq!(late, 0, "faithd kept streaming on a changed set-up:\n{log}");
+}
+
+/// SYS_STATUS that stops must not leave its last "healthy" standing.
+#[test]
+fn a_radio_status_that_stops_closes_the_gate() {
+    let (mock, mut daemon) = start(Controls::default());
+    wait_for_roll(&mock, &daemon, "radio status");
+    mock.controls
+        .send_sys_status
+        .store(false, Ordering::Relaxed);
+    let at = Instant::now();
+    assert!(
+        daemon.wait_for_log("SYS_STATUS stale", Duration::from_secs(2)),
+        "{}",
+        daemon.log()
+    );
+    std::thread::sleep(Duration::from_millis(500));
+    let centre = centre_frame_after(&mock.msp, at).expect("released");
+    assert!(centre - at <= Duration::from_millis(300) + TO_INAV + SLACK);
+    assert_eq!(roll_frames_after(&mock.msp, centre), 0);
+    assert!(daemon.stop().success());
+}

@@ -120,8 +120,10 @@ struct RouteFigures {
 fn figures(monitor: &Monitor, m: &Manoeuvre) -> RouteFigures {
     let end = m.start_us + ROLL_MS * 1000;
     let during = monitor.between(m.start_us, end);
+    // The monitor shares iNav's 100 Hz serial task on its own port: a sample (MSP_RC
+    // and MSP2_INAV_STATUS) every 20 ms on a board's timing.
     assert!(
-        during.len() > 100,
+        during.len() >= 60,
         "only {} samples over the roll",
         during.len()
     );
@@ -439,12 +441,17 @@ fn an_msp_receiver_is_refused_and_never_streamed_to() {
 /// `faithd check-fc` against this SITL; (exit code, stdout). Exit 1 (the flight
 /// controller could not be read: SITL still settling after a save) is retried.
 fn check_fc(sitl: &Sitl) -> (i32, String) {
+    check_fc_with(sitl, "")
+}
+
+/// As [`check_fc`], with `extra` TOML in faithd.toml.
+fn check_fc_with(sitl: &Sitl, extra: &str) -> (i32, String) {
     let dir = common::TempDir::new("check-fc");
     let config = dir.0.join("faithd.toml");
     std::fs::write(
         &config,
         format!(
-            "[command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n",
+            "[command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n{extra}",
             sitl.endpoint(UART_MSP_FAITHD)
         ),
     )
@@ -491,6 +498,14 @@ fn check_fc_refuses_each_known_bad_wiring_and_its_fix_works() {
             "aux 2 50 1 1700 2100",
         ),
         ("aux 0 0 1 1700 2100", "arm switch", "aux 0 0"),
+        // ANGLE moved off the vehicle's ARM switch: AUTO without ANGLE.
+        ("aux 1 1 2 1700 2100", "ANGLE on AUTO", " 1 1 1700 2100"),
+        // iNav would hold faithd's last roll 1.4 s after a crash.
+        (
+            "set failsafe_delay = 10",
+            "failsafe delays",
+            "set failsafe_delay = 5",
+        ),
         (
             "set mavlink_extra1_rate = 10",
             "ATTITUDE rate",
@@ -520,27 +535,59 @@ fn check_fc_refuses_each_known_bad_wiring_and_its_fix_works() {
             fix_line.contains(fix),
             "{breaks}: fix {fix_line:?} lacks {fix}"
         );
-        // The fix as printed, pasted into iNav's CLI, makes the check pass again.
-        // A parenthesis is advice for the reader, the rest is CLI lines.
-        let pasted: Vec<String> = fix_line
-            .split_once("fix (iNav CLI): ")
-            .map(|(_, f)| {
-                f.split(" (")
-                    .next()
-                    .unwrap()
-                    .split(", then ")
-                    .map(str::to_string)
-                    .collect()
-            })
-            .unwrap();
-        let pasted: Vec<String> = pasted
-            .into_iter()
-            .map(|l| l.replace("<other aux channel>", "2"))
-            .collect();
-        sitl.cli_save(&pasted);
-        let (code, out) = check_fc(&sitl);
-        assert_eq!(code, 0, "{breaks}: after {pasted:?}:\n{out}");
+        // The fixes as printed, pasted into iNav's CLI, make the check pass again (a
+        // fix can bring the next problem to light: ARM moved off the switch that also
+        // holds ANGLE needs ANGLE on AUTO too; each is printed in turn).
+        let mut out = out;
+        let mut pasted_all = Vec::new();
+        for _ in 0..3 {
+            let pasted = cli_fixes(&out);
+            assert!(
+                !pasted.is_empty(),
+                "{breaks}: a refusal without a CLI fix:\n{out}"
+            );
+            sitl.cli_save(&pasted);
+            pasted_all.extend(pasted);
+            let (code, again) = check_fc(&sitl);
+            out = again;
+            if code == 0 {
+                break;
+            }
+        }
+        assert!(
+            out.contains("ok for faithd's roll route"),
+            "{breaks}: after {pasted_all:?}:\n{out}"
+        );
     }
+
+    // A calibrated receiver: iNav scales faithd's roll by it. check-fc reads it in
+    // iNav's CLI and names the faithd.toml line that aims through it.
+    sitl.cli_save(&["rxrange 0 988 2012".to_string()]);
+    let (code, out) = check_fc(&sitl);
+    assert_eq!(code, 2, "{out}");
+    assert!(out.contains("rxrange 0 988 2012"), "{out}");
+    assert!(
+        out.contains("fix in faithd.toml: [command] roll_rxrange_us = [988, 2012]"),
+        "{out}"
+    );
+    let (code, out) = check_fc_with(&sitl, "[command]\nroll_rxrange_us = [988, 2012]\n");
+    assert_eq!(code, 0, "{out}");
+}
+
+/// The iNav CLI lines of every fix `faithd check-fc` printed (a parenthesis is advice
+/// for the reader, the rest is CLI lines).
+fn cli_fixes(out: &str) -> Vec<String> {
+    out.lines()
+        .filter_map(|l| l.split_once("fix (iNav CLI): "))
+        .flat_map(|(_, f)| {
+            f.split(" (")
+                .next()
+                .unwrap()
+                .split(", then ")
+                .map(|l| l.replace("<other aux channel>", "2"))
+                .collect::<Vec<_>>()
+        })
+        .collect()
 }
 
 #[test]

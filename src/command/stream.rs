@@ -14,9 +14,9 @@
 //! goes first whenever the held value changed and at least every
 //! `manoeuvre.resend_period_us`; the other slots ask MSP_RC (the roll iNav really
 //! uses, for the commander's check) and MSP2_INAV_STATUS (armed, failsafe, ANGLE, the
-//! override mode) in turn, and about once a second one request of the set-up check
-//! again: a set-up changed in flight (from a configurator on another port) stops the
-//! stream and closes the gate with what changed.
+//! override mode) in turn, and every 400 ms one request of the set-up check again: a
+//! set-up changed in flight (from a configurator on another port) stops the stream
+//! and closes the gate with what changed.
 //!
 //! Whatever the commander does, the stream holds a roll no longer than a roll lasts
 //! plus a margin ([`StreamSettings::hold_bound`]), then reverts to the centre.
@@ -249,8 +249,9 @@ struct Rotation {
     recheck: usize,
 }
 
-/// About once a second with the roll frame in every other slot.
-const RECHECK_EVERY: usize = 25;
+/// Every 400 ms with the roll frame in every other slot: the whole set-up (three
+/// requests) is read again every 1.2 s.
+const RECHECK_EVERY: usize = 10;
 
 impl Rotation {
     fn next(&mut self) -> Ask {
@@ -514,5 +515,165 @@ mod tests {
         msp::Decoder::default().push(&raw_rc_frame(0, 1800, range), &mut out);
         let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
         assert_eq!(range.scale(values[0]), 1800);
+    }
+}
+
+/// The stream against faithd's model of iNav on a board, over a simulated UART, in
+/// simulated time: what iNav uses, millisecond by millisecond.
+#[cfg(all(test, feature = "sim"))]
+mod on_the_board {
+    use std::sync::{Arc, Mutex};
+
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    use super::*;
+    use crate::closed_loop::inav_msp::{InavMsp, Pilot, PortLog, Setup};
+    use crate::closed_loop::uart;
+    use crate::link::endpoint::{Address, InProcessPort};
+
+    /// What iNav used on roll, by daemon time, and the port's log.
+    #[derive(Default)]
+    struct Seen {
+        roll: Vec<(i64, u16)>,
+        port: PortLog,
+    }
+
+    /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
+    fn inav(clock: DaemonClock) -> (Endpoint, Arc<Mutex<Seen>>) {
+        let (tx, mut sessions) = mpsc::unbounded_channel();
+        let port = InProcessPort::new("inav-msp", move || {
+            let (faithd, device) = uart::pair(115_200);
+            tx.send(device)
+                .map_err(|_| std::io::Error::other("iNav has stopped"))?;
+            Ok(Box::pin(faithd))
+        });
+        let seen = Arc::new(Mutex::new(Seen::default()));
+        let out = seen.clone();
+        tokio::spawn(async move {
+            let mut fc = InavMsp::new(Setup::default(), clock.now_us());
+            fc.set_pilot(Pilot::flying([
+                1440, 1500, 1500, 1400, 1900, 1900, 1000, 1000,
+            ]));
+            let device = sessions.recv().await.expect("faithd opens the port");
+            let (mut rx, mut tx) = tokio::io::split(device);
+            let mut tick = tokio::time::interval(Duration::from_millis(1));
+            let mut buf = [0u8; 512];
+            loop {
+                tokio::select! {
+                    biased;
+                    _ = tick.tick() => {
+                        fc.advance(clock.now_us());
+                        let replies = fc.take_output();
+                        if !replies.is_empty() && tx.write_all(&replies).await.is_err() {
+                            return;
+                        }
+                        let mut seen = out.lock().unwrap();
+                        seen.roll.push((clock.now_us(), fc.roll_in_use()));
+                        seen.port = fc.log.clone();
+                    }
+                    got = rx.read(&mut buf) => match got {
+                        Ok(0) | Err(_) => return,
+                        Ok(n) => fc.receive(&buf[..n], clock.now_us()),
+                    },
+                }
+            }
+        });
+        (Endpoint::new(Address::InProcess(port), 115_200), seen)
+    }
+
+    fn settings() -> StreamSettings {
+        let config = crate::config::FaithdConfig::default();
+        StreamSettings {
+            roll_period: Duration::from_millis(40),
+            reply_timeout: Duration::from_millis(500),
+            warmup_margin_us: 100_000,
+            reconnect_min: Duration::from_millis(100),
+            reconnect_max: Duration::from_secs(1),
+            recheck: Duration::from_secs(5),
+            expect: Expectations::new(&config.gate, &config.command, 1),
+            roll_rxrange: RxRange::DEFAULT,
+            hold_bound: Duration::from_millis(1750),
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_roll_held_past_its_bound_is_dropped_by_the_stream_itself() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        // A commander that sets a roll and never takes it back (stuck, or wrong).
+        let raised_us = clock.now_us();
+        stream.held.send_replace(1800);
+        tokio::time::sleep(Duration::from_secs(4)).await;
+        let seen = seen.lock().unwrap();
+        let rolled_at = seen
+            .roll
+            .iter()
+            .find(|(t, v)| *t >= raised_us && *v == 1800)
+            .map(|(t, _)| *t)
+            .expect("iNav used the roll");
+        let back_at = seen
+            .roll
+            .iter()
+            .find(|(t, v)| *t > rolled_at && *v != 1800)
+            .map(|(t, _)| *t)
+            .expect("the stream gave the roll back");
+        let held_us = back_at - raised_us;
+        assert!(
+            (1_750_000..=1_750_000 + 80_000).contains(&held_us),
+            "the roll held {held_us} us against a bound of 1.75 s"
+        );
+        assert!(
+            seen.roll
+                .iter()
+                .filter(|(t, _)| *t >= back_at)
+                .all(|(_, v)| *v == 1500),
+            "the centre, not the pilot's stick nor the roll, after the bound"
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_stream_fits_the_boards_serial_task_and_loses_nothing() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        // Rolls and releases in quick succession: every change is a roll frame first.
+        for k in 0..40u64 {
+            tokio::time::sleep(Duration::from_millis(100 + 7 * k)).await;
+            stream
+                .held
+                .send_replace(if k % 2 == 0 { 1800 } else { 1500 });
+        }
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        let seen = seen.lock().unwrap();
+        let port = &seen.port;
+        assert_eq!(port.bytes_lost, 0);
+        let arrived: Vec<i64> = port.arrived.iter().map(|(t, _)| *t).collect();
+        let span_us = arrived.last().unwrap() - arrived[0];
+        let mean_per_s = (arrived.len() - 1) as f64 * 1e6 / span_us as f64;
+        assert!(mean_per_s <= 50.0, "{mean_per_s:.2} commands a second");
+        for (i, t0) in arrived.iter().enumerate() {
+            // A slot every 20 ms; a frame's time on the wire moves its arrival by a
+            // fraction of a millisecond, so one second can hold 51 arrivals.
+            let in_second = arrived[i..]
+                .iter()
+                .take_while(|t| **t < t0 + 1_000_000)
+                .count();
+            assert!(
+                in_second <= 51,
+                "{in_second} commands in the second from {t0}"
+            );
+            let served = port.served.iter().filter(|(t, _)| t <= t0).count();
+            assert!(
+                i + 1 - served <= 1,
+                "{} requests waiting at {t0}",
+                i + 1 - served
+            );
+        }
+        // Each change reached iNav within a slot, its serial task and the wire.
+        assert!(arrived.len() > 400, "{}", arrived.len());
     }
 }

@@ -386,12 +386,16 @@ pub async fn serve(
     // Every select in the daemon is biased: branches are polled in the order
     // written, so a simulated flight (one thread, simulated time) takes the same
     // path on every run. Rare events come first, so a busy stream cannot starve them.
+    let mut commander_done = false;
     let ended = tokio::select! {
         biased;
-        ended = &mut commander => Ended::Fault(match ended {
-            Err(e) if e.is_panic() => "the commander panicked".into(),
-            _ => "the commander ended".into(),
-        }),
+        ended = &mut commander => {
+            commander_done = true;
+            Ended::Fault(match ended {
+                Err(e) if e.is_panic() => "the commander panicked".into(),
+                _ => "the commander ended".into(),
+            })
+        }
         why = shutdown => {
             tracing::info!("shutdown requested ({why})");
             Ended::Requested(why)
@@ -410,8 +414,10 @@ pub async fn serve(
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
     // centre, `release_repeats` times, each frame flushed, before faithd exits.
     release_on_exit(&stream_stop, &stream_rx, &msp_endpoint, &config).await;
-    commander.abort();
-    let _ = commander.await;
+    if !commander_done {
+        commander.abort();
+        let _ = commander.await;
+    }
     if let Some(r) = &recorder {
         r.finish().await;
     }
@@ -505,7 +511,10 @@ async fn release_on_exit(
     config: &FaithdConfig,
 ) {
     let repeats = config.manoeuvre.release_repeats;
-    let facts = status.borrow().facts;
+    let (facts, streaming) = {
+        let s = status.borrow();
+        (s.facts, s.ready_at_us.is_some())
+    };
     let (done, answer) = tokio::sync::oneshot::channel();
     let asked = stop.try_send(StopRequest { repeats, done }).is_ok();
     let why = if asked {
@@ -514,15 +523,21 @@ async fn release_on_exit(
                 tracing::info!("roll channel released: {n} centre frames written to iNav");
                 return;
             }
-            Ok(Ok(Err(why))) => why,
-            Ok(Err(_)) => "the MSP stream task has ended".into(),
+            // The stream is alive and not streaming (the port is down, or the set-up
+            // was refused or changed): iNav has no frame of faithd's to hold, and a
+            // frame written now could land on a set-up faithd refused.
+            Ok(Ok(Err(why))) => {
+                tracing::info!("roll channel: nothing to release ({why})");
+                return;
+            }
+            Ok(Err(_)) => "the MSP stream task has ended".to_string(),
             Err(_) => "the MSP stream did not answer within 1 s".into(),
         }
     } else {
         "the MSP stream task has ended".into()
     };
-    let Some(facts) = facts else {
-        tracing::info!("roll channel: nothing to release ({why}; no frame was ever sent)");
+    let Some(facts) = facts.filter(|_| streaming) else {
+        tracing::info!("roll channel: nothing to release ({why}; faithd was not streaming)");
         return;
     };
     tracing::error!("roll channel release through the stream failed ({why}): writing it directly");

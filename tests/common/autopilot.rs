@@ -12,6 +12,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use faithd::closed_loop::inav_mavlink;
+use faithd::closed_loop::inav_msp::Setup;
 use mavlink::MavHeader;
 use mavlink::dialects::common::*;
 
@@ -139,6 +140,11 @@ impl MockAutopilot {
     /// Starts the mock on a new pseudo-terminal; faithd connects to `slave_path`
     /// (or to a symlink the test points at it).
     pub fn start(controls: Arc<Controls>) -> Self {
+        Self::start_with(controls, Setup::default())
+    }
+
+    /// The mock of a flight controller set up as `setup` says (its MSP port).
+    pub fn start_with(controls: Arc<Controls>, setup: Setup) -> Self {
         let (master, slave, slave_path) = raw_pty();
         let master = Arc::new(master);
         let stop = Arc::new(AtomicBool::new(false));
@@ -255,7 +261,7 @@ impl MockAutopilot {
             }));
         }
         MockAutopilot {
-            msp: MspMock::start(controls.clone()),
+            msp: MspMock::start_with(controls.clone(), setup),
             controls,
             received,
             rc_sent,
