@@ -116,4 +116,33 @@ mod tests {
         let err = caer(vec![(-2, 1, 0)]).validate().unwrap_err();
         assert_eq!(err.key, "source.caer_settings[0]");
     }
+
+    /// The example faithd.toml gives is what it says: libcaer's own DAVIS240 defaults
+    /// for OnBn and OffBn, coarse/fine encoded, accepted by the checks.
+    #[test]
+    fn the_shipped_bias_example_is_libcaers_davis240_defaults_encoded() {
+        use libcaer_sys::CoarseFineBias;
+        let shipped = include_str!("../../config/faithd.toml");
+        let example = shipped
+            .lines()
+            .find_map(|l| l.strip_prefix("#   caer_settings = "))
+            .expect("the example in config/faithd.toml");
+        #[derive(Deserialize)]
+        struct Example {
+            caer_settings: Vec<(i8, u8, u32)>,
+        }
+        let parsed: Example = toml::from_str(&format!("caer_settings = {example}")).unwrap();
+        assert_eq!(
+            parsed.caer_settings,
+            [
+                (5, 1, CoarseFineBias::n_type(5, 255).encode()),
+                (5, 2, CoarseFineBias::n_type(4, 0).encode()),
+            ]
+        );
+        let caer = CaerSource {
+            libcaer_path: String::new(),
+            caer_settings: parsed.caer_settings,
+        };
+        assert_eq!(caer.validate(), Ok(()));
+    }
 }
