@@ -439,7 +439,7 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
     assert_eq!(err.key(), "source.caer_settings");
     assert!(
         err.to_string()
-            .starts_with("entry 1 ([5, 200, 1]) refused by libcaer"),
+            .starts_with("entry [1] = [5, 200, 1] refused by libcaer"),
         "{err}"
     );
     assert_eq!(unsafe { (script.open_attempts)() }, 1, "no retry");
@@ -686,7 +686,7 @@ fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
     let text = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{text}");
     assert!(
-        text.contains("`source.caer_settings`: entry 2 ([9, 7, 1]) refused by libcaer"),
+        text.contains("`source.caer_settings`: entry [2] = [9, 7, 1] refused by libcaer"),
         "{text}"
     );
 }

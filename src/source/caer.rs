@@ -88,7 +88,7 @@ pub enum CameraError {
     /// camera does not have, or a value it does not take. Retrying would be refused
     /// the same way.
     #[error(
-        "entry {index} ([{}, {}, {}]) refused by libcaer: this camera has no such (module, parameter) or does not take the value; fix or remove it (addresses in libcaer's devices/davis.h)",
+        "entry [{index}] = [{}, {}, {}] refused by libcaer: this camera has no such (module, parameter) or does not take the value; fix or remove it (addresses in libcaer's devices/davis.h)",
         setting.0, setting.1, setting.2
     )]
     SettingRefused { index: usize, setting: Setting },
