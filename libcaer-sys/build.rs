@@ -11,7 +11,9 @@ fn main() {
         let compiler = cc::Build::new().warnings(true).get_compiler();
         let status = compiler
             .to_command()
-            .args(["-shared", "-fPIC", "-O2", "-Wall", "-o"])
+            .args([
+                "-shared", "-fPIC", "-pthread", "-O2", "-Wall", "-Wextra", "-o",
+            ])
             .arg(&library)
             .arg("mock/caer_mock.c")
             .status()

@@ -1,17 +1,53 @@
 /*
- * A stand-in for libcaer, implementing the functions faithd calls, for tests:
- * one "DAVIS240" that serves a scripted stream of polarity packets (a vertical edge
- * sweeping right, ON events, 1 ms of device time per container), then vanishes (the
- * shutdown callback fires, DataGet returns NULL), refuses a number of opens, and
- * returns. Containers are paced in real time: each is handed out when the device
- * clock, running at a settable rate, has passed its newest event, plus a settable
- * random USB latency. caerDavisInfoGet reports a settable DVS size.
+ * A stand-in for iniVation's libcaer 3.x, for tests: the functions faithd loads, over
+ * one scripted "DAVIS240". Written from libcaer 3.3.9's public headers and from what
+ * its DAVIS driver is documented (and was measured) to do, not from its code:
+ *
+ * - include/libcaer/events/packetContainer.h: the container is a packed struct, int64
+ *   lowestEventTimestamp, int64 highestEventTimestamp, int32 eventsNumber, int32
+ *   eventsValidNumber, int32 eventPacketsNumber (offset 24), then the packet pointers
+ *   (offset 28, unaligned on 64-bit targets); it is calloc'ed with every slot NULL,
+ *   both timestamps -1, and its statistics are recomputed from the first and last
+ *   event of every non-empty packet each time a packet is set. Everything in that
+ *   header is static inline: the shared library does not export
+ *   caerEventPacketContainerFree, ...GetEventPacketsNumber or ...GetEventPacket, and
+ *   neither does this mock (faithd implements the three in libcaer-sys).
+ * - include/libcaer/events/common.h, polarity.h, special.h, frame.h, imu6.h: the
+ *   28-byte packed packet header (eventType, eventSource, eventSize, eventTSOffset,
+ *   eventTSOverflow, eventCapacity, eventNumber, eventValid), packets calloc'ed at
+ *   their capacity, and each event type's size and timestamp offset.
+ * - A DAVIS container has four slots, indexed by event type: SPECIAL_EVENT (0),
+ *   POLARITY_EVENT (1), FRAME_EVENT (2), IMU6_EVENT (3); a slot with nothing is NULL.
+ *   A timestamp reset comes alone, in a container of one slot holding a special packet
+ *   with one TIMESTAMP_RESET event stamped INT32_MAX; the device's time restarts at 0.
+ * - include/libcaer/devices/davis.h: module and parameter addresses. caerDeviceConfigSet
+ *   refuses a (module, parameter) the DAVIS240 does not have, read-only ones included.
+ * - caerDeviceDataStart turns the DVS, APS, IMU and external-input run flags on;
+ *   caerDeviceDataStop turns them off. DataStop on a device whose DataStart never ran
+ *   or failed reaches a NULL ring buffer in libcaer (SIGSEGV): this mock aborts there.
+ * - caerDeviceDataGet in blocking mode (CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING, off
+ *   by default) waits for a container and gives up with NULL after about a second
+ *   (1000 sleeps of 1 ms); in non-blocking mode it returns NULL at once when nothing
+ *   is ready; once transfers stop (the device went away) it returns NULL at once.
+ * - When the device goes away, libcaer's USB thread stops the transfers and then
+ *   calls the shutdown callback given to DataStart: from that thread, not from DataGet.
+ *
+ * The stream: a vertical edge sweeping right (ON events, one per row, 1 ms of device
+ * time per container, plus one invalid event), paced in real time (a container is
+ * handed out once the device clock, at a settable rate, has passed its newest event,
+ * plus a settable random USB latency), an optional quiet gap (a dark scene), then the
+ * device vanishes after a scripted number of containers, refuses some opens and
+ * returns. Frames and IMU samples are interleaved while the APS and IMU run, and a
+ * run flag turned off takes effect only after the containers already in flight.
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdbool.h>
-#include <stdio.h>
+#include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -48,27 +84,90 @@ struct caer_davis_info {
 _Static_assert(sizeof(struct caer_davis_info) == 64, "libcaer 3 layout");
 #endif
 
+/* The container as packetContainer.h lays it out (packed). */
+struct caer_event_packet_container {
+    int64_t lowestEventTimestamp;
+    int64_t highestEventTimestamp;
+    int32_t eventsNumber;
+    int32_t eventsValidNumber;
+    int32_t eventPacketsNumber;
+    uint8_t *eventPackets[];
+} __attribute__((__packed__));
+_Static_assert(offsetof(struct caer_event_packet_container, eventPacketsNumber) == 24, "packed");
+_Static_assert(offsetof(struct caer_event_packet_container, eventPackets) == 28, "packed");
+
+/* Event types (events/common.h) and their slots in a DAVIS container. */
+enum { SPECIAL_EVENT = 0, POLARITY_EVENT = 1, FRAME_EVENT = 2, IMU6_EVENT = 3, DAVIS_SLOTS = 4 };
+/* Special event types (events/special.h). */
+enum { TIMESTAMP_RESET = 1, EXTERNAL_INPUT_RISING_EDGE = 2 };
+#define PACKET_HEADER_BYTES 28
+#define POLARITY_EVENT_BYTES 8
+#define SPECIAL_EVENT_BYTES 8
+#define IMU6_EVENT_BYTES 36
+/* A frame event: nine 32-bit fields, then the pixels (frame.h); its timestamp is
+   ts_endframe, at offset 8. */
+#define FRAME_EVENT_HEADER_BYTES 36
+/* Capacities libcaer's DAVIS driver allocates its packets with (more than a container
+   usually holds: readers must stop at eventNumber). */
+#define POLARITY_CAPACITY 4096
+#define SPECIAL_CAPACITY 128
+#define IMU6_CAPACITY 64
+#define FRAME_CAPACITY 1
+
+/* Module addresses (devices/device.h, usb.h, davis.h). */
+enum {
+    HOST_USB = -1, HOST_DATAEXCHANGE = -2, HOST_PACKETS = -3, HOST_LOG = -4,
+    MOD_MUX = 0, MOD_DVS = 1, MOD_APS = 2, MOD_IMU = 3, MOD_EXTINPUT = 4, MOD_BIAS = 5,
+    MOD_SYSINFO = 6, MOD_USB = 9,
+};
+#define DATAEXCHANGE_BLOCKING 1
+#define DVS_RUN 3
+#define APS_RUN 4
+#define IMU_RUN_ACCELEROMETER 2
+#define IMU_RUN_GYROSCOPE 3
+#define IMU_RUN_TEMPERATURE 4
+#define EXTINPUT_RUN_DETECTOR 0
+#define MUX_RUN 0
+#define MUX_TIMESTAMP_RUN 1
+#define MUX_RUN_CHIP 3
+#define USB_RUN 0
+
+/* Containers already in the USB buffers when a run flag goes off: their frames and
+   IMU samples still arrive. */
+#define IN_FLIGHT_CONTAINERS 4
+
 struct caer_device_handle {
     int32_t served;
     void (*shutdown)(void *);
     void *shutdown_ptr;
-    bool running;
-};
-
-struct caer_event_packet_container {
-    int32_t packets;
-    uint8_t *packet;
+    bool started;
+    bool reset_sent;
+    atomic_bool transfers;
+    bool notifier_started;
+    pthread_t notifier;
+    /* Containers served while the APS / IMU ran, as seen by the data path. */
+    int32_t aps_off_from, imu_off_from;
 };
 
 static int32_t script_before_disconnect = 1000000;
 static int32_t script_failed_opens = 0;
 static int32_t failed_opens_left = 0;
 static int32_t open_attempts = 0;
-static bool vanished = false;
+static atomic_bool vanished = false;
 static int64_t stream_time_us = 0;
-static int64_t config_values[16][64];
-static bool config_set[16][64];
+static int32_t quiet_after = -1;
+static int64_t quiet_us = 0;
+static int64_t config_values[16][256];
+static bool config_set[16][256];
+/* The caller's own writes (not the library's): -1 never, 0 before DataStart, 1 while
+   started. */
+static int8_t caller_write[16][256];
+static bool blocking = false;
 static int16_t sensor_width_px = 240, sensor_height_px = 180;
+static int32_t failures = 0;
+static int32_t starts = 0, stops = 0, closes = 0;
+static int32_t packets_served[DAVIS_SLOTS];
+static atomic_int shutdown_calls = 0;
 /* Device clock: rate against CLOCK_MONOTONIC, latency range, and the session's
    anchor (host time at which the device read session_device0_us). */
 static double clock_rate = 1.0;
@@ -76,16 +175,27 @@ static int32_t latency_min_us = 0, latency_max_us = 0;
 static int64_t session_host0_us = 0, session_device0_us = 0;
 static uint64_t latency_rng = 1;
 
+/* What the script can make fail (caer_mock_fail, CAER_MOCK_FAIL). */
+enum { FAIL_DEFAULT_CONFIG = 1, FAIL_DATA_START = 2, FAIL_INFO = 4 };
+
 void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens_after) {
     script_before_disconnect = containers_before_disconnect;
     script_failed_opens = failed_opens_after;
     failed_opens_left = 0;
     open_attempts = 0;
-    vanished = false;
+    atomic_store(&vanished, false);
     stream_time_us = 0;
+    quiet_after = -1;
+    quiet_us = 0;
     memset(config_set, 0, sizeof(config_set));
+    memset(caller_write, -1, sizeof(caller_write));
+    blocking = false;
     sensor_width_px = 240;
     sensor_height_px = 180;
+    failures = 0;
+    starts = stops = closes = 0;
+    memset(packets_served, 0, sizeof(packets_served));
+    atomic_store(&shutdown_calls, 0);
     clock_rate = 1.0;
     latency_min_us = latency_max_us = 0;
     latency_rng = 1;
@@ -95,12 +205,15 @@ void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens
  * A daemon under test loads this library in its own process, out of reach of the
  * script functions: the same script is read from the environment when the library
  * is loaded. CAER_MOCK_SENSOR=WxH, CAER_MOCK_DISCONNECT_AFTER=containers,
- * CAER_MOCK_FAILED_OPENS=opens refused after the disconnect.
+ * CAER_MOCK_FAILED_OPENS=opens refused after the disconnect, CAER_MOCK_FAIL=a sum of
+ * 1 (default config refused), 2 (data start fails), 4 (no DVS size).
  */
 __attribute__((constructor)) static void caer_mock_from_env(void) {
+    memset(caller_write, -1, sizeof(caller_write));
     const char *sensor = getenv("CAER_MOCK_SENSOR");
     const char *after = getenv("CAER_MOCK_DISCONNECT_AFTER");
     const char *failed = getenv("CAER_MOCK_FAILED_OPENS");
+    const char *fail = getenv("CAER_MOCK_FAIL");
     int w = 0, h = 0;
     if (sensor && sscanf(sensor, "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w < 32768 && h < 32768) {
         sensor_width_px = (int16_t) w;
@@ -108,11 +221,21 @@ __attribute__((constructor)) static void caer_mock_from_env(void) {
     }
     if (after) script_before_disconnect = (int32_t) atoi(after);
     if (failed) script_failed_opens = (int32_t) atoi(failed);
+    if (fail) failures = (int32_t) atoi(fail);
 }
 
 void caer_mock_sensor(int16_t width_px, int16_t height_px) {
     sensor_width_px = width_px;
     sensor_height_px = height_px;
+}
+
+void caer_mock_fail(int32_t what) { failures = what; }
+
+/* After `after_containers` containers, the scene goes dark for `gap_us` of device
+   time: no events, so a blocking DataGet times out. */
+void caer_mock_quiet(int32_t after_containers, int64_t gap_us) {
+    quiet_after = after_containers;
+    quiet_us = gap_us;
 }
 
 void caer_mock_clock(double rate, int32_t min_us, int32_t max_us) {
@@ -150,10 +273,73 @@ static void sleep_until_us(int64_t at_us) {
 
 int32_t caer_mock_open_attempts(void) { return open_attempts; }
 
+/* 0: DataStart calls that succeeded, 1: DataStop calls, 2: Close calls, 3: shutdown
+   callbacks made. */
+int32_t caer_mock_count(int32_t what) {
+    switch (what) {
+        case 0: return starts;
+        case 1: return stops;
+        case 2: return closes;
+        case 3: return atomic_load(&shutdown_calls);
+        default: return -1;
+    }
+}
+
+/* Packets of an event type handed out in containers since the script was set. */
+int32_t caer_mock_packets_served(int32_t event_type) {
+    return event_type >= 0 && event_type < DAVIS_SLOTS ? packets_served[event_type] : -1;
+}
+
+static bool config_index(int8_t mod, int *m) {
+    *m = mod + 8;
+    return *m >= 0 && *m < 16;
+}
+
 int64_t caer_mock_config_value(int8_t mod, uint8_t param) {
-    int m = mod + 8;
-    if (m < 0 || m >= 16 || param >= 64 || !config_set[m][param]) return -1;
+    int m;
+    if (!config_index(mod, &m) || !config_set[m][param]) return -1;
     return config_values[m][param];
+}
+
+/* Whether the caller's last caerDeviceConfigSet of (module, parameter) came after a
+   successful DataStart (and before the DataStop that ended it): 1, 0, or -1 when the
+   caller never wrote it. */
+int32_t caer_mock_config_written_while_started(int8_t mod, uint8_t param) {
+    int m;
+    if (!config_index(mod, &m)) return -1;
+    return caller_write[m][param];
+}
+
+/* The device's state of (module, parameter), whoever wrote it. */
+static void store_config(int8_t mod, uint8_t param, uint32_t value) {
+    int m;
+    if (!config_index(mod, &m)) return;
+    config_values[m][param] = value;
+    config_set[m][param] = true;
+}
+
+static bool config_is(int8_t mod, uint8_t param, int64_t value) {
+    return caer_mock_config_value(mod, param) == value;
+}
+
+/* The (module, parameter) pairs a DAVIS240 takes (davis.h), as this mock's device
+   reports them: no pixel, background-activity, ROI, skip or polarity filter, no
+   global shutter, no external-input generator. Read-only parameters are refused. */
+static bool davis240_takes(int8_t mod, uint8_t p) {
+    switch (mod) {
+        case HOST_USB: return p <= 1;
+        case HOST_DATAEXCHANGE: return p <= 3;
+        case HOST_PACKETS: return p <= 1;
+        case HOST_LOG: return p == 0;
+        case MOD_MUX: return p <= 5;
+        case MOD_DVS: return p >= 3 && p <= 5;
+        case MOD_APS: return p == 4 || p == 5 || (p >= 8 && p <= 13) || (p >= 100 && p <= 102);
+        case MOD_IMU: return (p >= 2 && p <= 7) || p == 9 || p == 10;
+        case MOD_EXTINPUT: return p <= 5;
+        case MOD_BIAS: return p <= 21 || (p >= 128 && p <= 142);
+        case MOD_USB: return p <= 1;
+        default: return false;
+    }
 }
 
 struct caer_device_handle *caerDeviceOpen(uint16_t id, uint16_t type, uint8_t bus, uint8_t addr,
@@ -161,27 +347,39 @@ struct caer_device_handle *caerDeviceOpen(uint16_t id, uint16_t type, uint8_t bu
     (void) id; (void) bus; (void) addr; (void) serial;
     open_attempts++;
     if (type != 4) return NULL;
-    if (vanished) {
+    if (atomic_load(&vanished)) {
         if (failed_opens_left > 0) { failed_opens_left--; return NULL; }
-        vanished = false;
+        atomic_store(&vanished, false);
     }
     struct caer_device_handle *h = calloc(1, sizeof *h);
     return h;
 }
 
+static void join_notifier(struct caer_device_handle *h) {
+    if (h->notifier_started) {
+        pthread_join(h->notifier, NULL);
+        h->notifier_started = false;
+    }
+}
+
 bool caerDeviceClose(struct caer_device_handle **h) {
     if (h == NULL || *h == NULL) return false;
+    closes++;
+    join_notifier(*h);
     free(*h);
     *h = NULL;
     return true;
 }
 
-bool caerDeviceSendDefaultConfig(struct caer_device_handle *h) { return h != NULL; }
+bool caerDeviceSendDefaultConfig(struct caer_device_handle *h) {
+    if (h == NULL || (failures & FAIL_DEFAULT_CONFIG)) return false;
+    return true;
+}
 
 struct caer_davis_info caerDavisInfoGet(struct caer_device_handle *h) {
     struct caer_davis_info info;
     memset(&info, 0, sizeof info);
-    if (h == NULL) return info; /* libcaer: all zeros on failure */
+    if (h == NULL || (failures & FAIL_INFO)) return info; /* libcaer: all zeros on failure */
     info.deviceID = 1;
     memcpy(info.deviceSerialNumber, "00000001", 9);
     info.chipID = sensor_width_px == 346 ? 5 /* DAVIS346B */ : 2 /* DAVIS240C */;
@@ -194,88 +392,286 @@ struct caer_davis_info caerDavisInfoGet(struct caer_device_handle *h) {
 }
 
 bool caerDeviceConfigSet(struct caer_device_handle *h, int8_t mod, uint8_t param, uint32_t value) {
-    int m = mod + 8;
-    if (h == NULL || m < 0 || m >= 16 || param >= 64) return false;
-    config_values[m][param] = value;
-    config_set[m][param] = true;
+    if (h == NULL || !davis240_takes(mod, param)) return false;
+    if (mod == HOST_DATAEXCHANGE && param == DATAEXCHANGE_BLOCKING) blocking = value != 0;
+    store_config(mod, param, value);
+    int m;
+    if (config_index(mod, &m)) caller_write[m][param] = h->started ? 1 : 0;
+    if (h->started) {
+        if (mod == MOD_APS && param == APS_RUN && value == 0 && h->aps_off_from < 0)
+            h->aps_off_from = h->served + IN_FLIGHT_CONTAINERS;
+        if (mod == MOD_IMU && (param >= IMU_RUN_ACCELEROMETER && param <= IMU_RUN_TEMPERATURE)
+            && config_is(MOD_IMU, IMU_RUN_ACCELEROMETER, 0) && config_is(MOD_IMU, IMU_RUN_GYROSCOPE, 0)
+            && config_is(MOD_IMU, IMU_RUN_TEMPERATURE, 0) && h->imu_off_from < 0)
+            h->imu_off_from = h->served + IN_FLIGHT_CONTAINERS;
+    }
     return true;
+}
+
+/* What libcaer's davisDataStart writes once transfers run (davis.c): every run flag
+   on. */
+static void run_flags(bool on) {
+    store_config(MOD_MUX, MUX_RUN_CHIP, on);
+    store_config(MOD_USB, USB_RUN, on);
+    store_config(MOD_MUX, MUX_TIMESTAMP_RUN, on);
+    store_config(MOD_MUX, MUX_RUN, on);
+    store_config(MOD_DVS, DVS_RUN, on);
+    store_config(MOD_APS, APS_RUN, on);
+    store_config(MOD_IMU, IMU_RUN_ACCELEROMETER, on);
+    store_config(MOD_IMU, IMU_RUN_GYROSCOPE, on);
+    store_config(MOD_IMU, IMU_RUN_TEMPERATURE, on);
+    store_config(MOD_EXTINPUT, EXTINPUT_RUN_DETECTOR, on);
 }
 
 bool caerDeviceDataStart(struct caer_device_handle *h, void (*inc)(void *), void (*dec)(void *),
                          void *ptr, void (*shutdown)(void *), void *shutdown_ptr) {
     (void) inc; (void) dec; (void) ptr;
-    if (h == NULL || vanished) return false;
+    if (h == NULL || atomic_load(&vanished) || (failures & FAIL_DATA_START)) return false;
+    if (h->started) {
+        fprintf(stderr, "caer_mock: caerDeviceDataStart on a device already started\n");
+        abort();
+    }
     h->shutdown = shutdown;
     h->shutdown_ptr = shutdown_ptr;
-    h->running = true;
+    h->started = true;
+    h->reset_sent = false;
+    h->aps_off_from = h->imu_off_from = -1;
+    atomic_store(&h->transfers, true);
+    run_flags(true);
+    starts++;
+    stream_time_us = 0;
     session_host0_us = caer_mock_now_us();
-    session_device0_us = stream_time_us;
+    session_device0_us = 0;
     return true;
 }
 
 bool caerDeviceDataStop(struct caer_device_handle *h) {
     if (h == NULL) return false;
-    h->running = false;
+    if (!h->started) {
+        /* libcaer: davisDataStop -> davisCommonDataStop -> dataExchangeBufferEmpty on
+           a ring buffer DataStart never made: a NULL dereference. */
+        fprintf(stderr, "caer_mock: caerDeviceDataStop on a device that was never started "
+                        "(libcaer would crash here)\n");
+        abort();
+    }
+    atomic_store(&h->transfers, false);
+    join_notifier(h);
+    run_flags(false);
+    h->started = false;
+    stops++;
     return true;
 }
 
 static void put_i32(uint8_t *p, int32_t v) { memcpy(p, &v, 4); }
 static void put_i16(uint8_t *p, int16_t v) { memcpy(p, &v, 2); }
+static void put_f32(uint8_t *p, float v) { memcpy(p, &v, 4); }
+static int32_t get_i32(const uint8_t *p) { int32_t v; memcpy(&v, p, 4); return v; }
 
-struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle *h) {
-    if (h == NULL || !h->running || vanished) return NULL;
-    if (h->served >= script_before_disconnect) {
-        vanished = true;
-        failed_opens_left = script_failed_opens;
-        h->running = false;
-        if (h->shutdown) h->shutdown(h->shutdown_ptr);
-        return NULL;
-    }
-    /* One container per call: 1 ms of a vertical edge at column (served % width),
-       one ON event per row, plus one invalid event that must be skipped. */
-    const int32_t rows = 180, n = rows + 1, size = 8;
-    /* Handed out once the device clock has passed the newest valid event, plus USB
-       latency. */
-    int64_t newest_us = stream_time_us + rows - 1;
-    sleep_until_us(caer_mock_true_host_us(newest_us) + next_latency_us());
-    uint8_t *packet = calloc(1, 28 + (size_t) n * size);
-    put_i16(packet + 0, 1);      /* eventType: polarity */
-    put_i16(packet + 2, 1);      /* eventSource */
-    put_i32(packet + 4, size);   /* eventSize */
-    put_i32(packet + 8, 4);      /* eventTSOffset */
-    put_i32(packet + 12, 0);     /* eventTSOverflow */
-    put_i32(packet + 16, n);     /* eventCapacity */
-    put_i32(packet + 20, n);     /* eventNumber */
-    put_i32(packet + 24, rows);  /* eventValid */
-    int32_t x = h->served % (sensor_width_px > 0 ? sensor_width_px : 240);
-    for (int32_t k = 0; k < n; k++) {
-        uint8_t *e = packet + 28 + (size_t) k * size;
-        bool valid = k < rows;
-        uint32_t data = ((uint32_t) x << 17) | ((uint32_t) (k % rows) << 2) | 2u | (valid ? 1u : 0u);
-        put_i32(e, (int32_t) data);
-        put_i32(e + 4, (int32_t) (stream_time_us + k));
-    }
-    /* The real eventNumber field sits at offset 20 and eventValid at 24 in libcaer's
-       header; faithd reads eventNumber at 20. */
-    stream_time_us += 1000;
-    h->served++;
-    struct caer_event_packet_container *c = calloc(1, sizeof *c);
-    c->packets = 1;
-    c->packet = packet;
+/* A packet as caerEventPacketAllocate makes it: zeroed (every event invalid), the
+   header filled in but for eventNumber and eventValid. */
+static uint8_t *packet_allocate(int16_t type, int32_t capacity, int32_t event_bytes, int32_t ts_offset,
+                                int32_t ts_overflow) {
+    uint8_t *p = calloc(1, PACKET_HEADER_BYTES + (size_t) capacity * (size_t) event_bytes);
+    if (p == NULL) return NULL;
+    put_i16(p + 0, type);
+    put_i16(p + 2, 1); /* eventSource: the device ID */
+    put_i32(p + 4, event_bytes);
+    put_i32(p + 8, ts_offset);
+    put_i32(p + 12, ts_overflow);
+    put_i32(p + 16, capacity);
+    return p;
+}
+
+static uint8_t *event_at(uint8_t *p, int32_t k) {
+    return p + PACKET_HEADER_BYTES + (size_t) k * (size_t) get_i32(p + 4);
+}
+
+/* A 64-bit device time as a packet holds it: overflow in the header, 31 bits per
+   event (common.h: TS_OVERFLOW_SHIFT 31). */
+static int32_t overflow_of(int64_t t_us) { return (int32_t) (t_us >> 31); }
+static int32_t ts31(int64_t t_us) { return (int32_t) (t_us & 0x7FFFFFFF); }
+
+static int64_t event_time(uint8_t *p, int32_t k) {
+    int64_t overflow = get_i32(p + 12);
+    return (overflow << 31) | (int64_t) get_i32(event_at(p, k) + get_i32(p + 8));
+}
+
+/* caerEventPacketContainerAllocate: calloc'ed, every slot NULL, timestamps -1. */
+static struct caer_event_packet_container *container_allocate(int32_t slots) {
+    struct caer_event_packet_container *c =
+        calloc(1, sizeof(struct caer_event_packet_container) + (size_t) slots * sizeof(uint8_t *));
+    if (c == NULL) return NULL;
+    c->eventPacketsNumber = slots;
+    c->lowestEventTimestamp = -1;
+    c->highestEventTimestamp = -1;
     return c;
 }
 
-void caerEventPacketContainerFree(struct caer_event_packet_container *c) {
-    if (c == NULL) return;
-    free(c->packet);
-    free(c);
+/* caerEventPacketContainerSetEventPacket: the slot, then the statistics again from
+   the first and last event of every non-empty packet. */
+static void container_set(struct caer_event_packet_container *c, int32_t slot, uint8_t *packet) {
+    c->eventPackets[slot] = packet;
+    int64_t lowest = -1, highest = -1;
+    int32_t number = 0, valid = 0;
+    for (int32_t s = 0; s < c->eventPacketsNumber; s++) {
+        uint8_t *p = c->eventPackets[s];
+        if (p == NULL || get_i32(p + 20) == 0) continue;
+        int64_t first = event_time(p, 0), last = event_time(p, get_i32(p + 20) - 1);
+        if (lowest == -1 || lowest > first) lowest = first;
+        if (highest == -1 || highest < last) highest = last;
+        number += get_i32(p + 20);
+        valid += get_i32(p + 24);
+    }
+    c->lowestEventTimestamp = lowest;
+    c->highestEventTimestamp = highest;
+    c->eventsNumber = number;
+    c->eventsValidNumber = valid;
 }
 
-int32_t caerEventPacketContainerGetEventPacketsNumber(struct caer_event_packet_container *c) {
-    return c == NULL ? 0 : c->packets;
+/* How many events a packet holds, and how many of them are valid. */
+static void packet_count(uint8_t *p, int32_t number, int32_t valid) {
+    put_i32(p + 20, number);
+    put_i32(p + 24, valid);
 }
 
-uint8_t *caerEventPacketContainerGetEventPacket(struct caer_event_packet_container *c, int32_t n) {
-    if (c == NULL || n != 0) return NULL;
-    return c->packet;
+/* The container libcaer puts alone after a timestamp reset (container_generation):
+   one slot, a special packet with one TIMESTAMP_RESET event stamped INT32_MAX. */
+static struct caer_event_packet_container *timestamp_reset_container(void) {
+    struct caer_event_packet_container *c = container_allocate(1);
+    uint8_t *p = packet_allocate(SPECIAL_EVENT, 1, SPECIAL_EVENT_BYTES, 4, 0);
+    if (c == NULL || p == NULL) { free(c); free(p); return NULL; }
+    put_i32(event_at(p, 0), (TIMESTAMP_RESET << 1) | 1);
+    put_i32(event_at(p, 0) + 4, INT32_MAX);
+    packet_count(p, 1, 1);
+    container_set(c, SPECIAL_EVENT, p);
+    packets_served[SPECIAL_EVENT]++;
+    return c;
+}
+
+/* Container k of a session, starting at device time t0_us: a polarity packet (an
+   edge at column x, one ON event per row, one invalid event), a special packet every
+   25th container (an external-input edge), a frame every other container while the
+   APS runs, an IMU sample while the IMU runs; the other slots NULL. */
+static struct caer_event_packet_container *data_container(int32_t k, int64_t t0_us, int32_t x,
+                                                           bool aps, bool imu) {
+    const int32_t rows = 180, n = rows + 1;
+    struct caer_event_packet_container *c = container_allocate(DAVIS_SLOTS);
+    if (c == NULL) return NULL;
+    uint8_t *pol = packet_allocate(POLARITY_EVENT, POLARITY_CAPACITY, POLARITY_EVENT_BYTES, 4, overflow_of(t0_us));
+    if (pol == NULL) { free(c); return NULL; }
+    for (int32_t r = 0; r < n; r++) {
+        uint8_t *e = event_at(pol, r);
+        bool valid = r < rows;
+        uint32_t data = ((uint32_t) x << 17) | ((uint32_t) (r % rows) << 2) | 2u | (valid ? 1u : 0u);
+        put_i32(e, (int32_t) data);
+        put_i32(e + 4, ts31(t0_us + r));
+    }
+    packet_count(pol, n, rows);
+    container_set(c, POLARITY_EVENT, pol);
+    packets_served[POLARITY_EVENT]++;
+    if (k % 25 == 0) {
+        uint8_t *sp = packet_allocate(SPECIAL_EVENT, SPECIAL_CAPACITY, SPECIAL_EVENT_BYTES, 4, overflow_of(t0_us));
+        if (sp != NULL) {
+            put_i32(event_at(sp, 0), (EXTERNAL_INPUT_RISING_EDGE << 1) | 1);
+            put_i32(event_at(sp, 0) + 4, ts31(t0_us + 90));
+            packet_count(sp, 1, 1);
+            container_set(c, SPECIAL_EVENT, sp);
+            packets_served[SPECIAL_EVENT]++;
+        }
+    }
+    if (aps && k % 2 == 0) {
+        int32_t pixels = (int32_t) sensor_width_px * (int32_t) sensor_height_px;
+        if (pixels <= 0) pixels = 1;
+        uint8_t *fp = packet_allocate(FRAME_EVENT, FRAME_CAPACITY, FRAME_EVENT_HEADER_BYTES + 2 * pixels, 8,
+                                      overflow_of(t0_us));
+        if (fp != NULL) {
+            uint8_t *e = event_at(fp, 0);
+            put_i32(e, (1 << 1) | 1); /* info: valid, one colour channel */
+            for (int f = 1; f <= 4; f++) put_i32(e + 4 * f, ts31(t0_us + 100 * f));
+            put_i32(e + 20, sensor_width_px);
+            put_i32(e + 24, sensor_height_px);
+            /* Pixels: a grey that ON-event readers would misread as events if they
+               walked into this packet. */
+            memset(e + FRAME_EVENT_HEADER_BYTES, 0x5B, 2 * (size_t) pixels);
+            packet_count(fp, 1, 1);
+            container_set(c, FRAME_EVENT, fp);
+            packets_served[FRAME_EVENT]++;
+        }
+    }
+    if (imu) {
+        uint8_t *ip = packet_allocate(IMU6_EVENT, IMU6_CAPACITY, IMU6_EVENT_BYTES, 4, overflow_of(t0_us));
+        if (ip != NULL) {
+            uint8_t *e = event_at(ip, 0);
+            put_i32(e, 1);
+            put_i32(e + 4, ts31(t0_us + 500));
+            put_f32(e + 8, 0.0f);
+            put_f32(e + 12, 0.0f);
+            put_f32(e + 16, 1.0f); /* g */
+            put_f32(e + 32, 30.0f); /* deg C */
+            packet_count(ip, 1, 1);
+            container_set(c, IMU6_EVENT, ip);
+            packets_served[IMU6_EVENT]++;
+        }
+    }
+    return c;
+}
+
+/* Exported for tests of readers: container k as DataGet makes it, with the APS and
+   the IMU running (free it as libcaer's are freed). */
+struct caer_event_packet_container *caer_mock_container(int32_t k, int64_t t0_us, int32_t x) {
+    return data_container(k, t0_us, x, true, true);
+}
+
+/* Exported for tests of readers: the container libcaer sends alone after a
+   timestamp reset. */
+struct caer_event_packet_container *caer_mock_timestamp_reset_container(void) {
+    return timestamp_reset_container();
+}
+
+static void *notify_shutdown(void *arg) {
+    struct caer_device_handle *h = arg;
+    /* libcaer's USB thread sees the transfers fail, stops them, then calls back. */
+    sleep_until_us(caer_mock_now_us() + 2000);
+    atomic_fetch_add(&shutdown_calls, 1);
+    if (h->shutdown) h->shutdown(h->shutdown_ptr);
+    return NULL;
+}
+
+struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle *h) {
+    if (h == NULL || !h->started || !atomic_load(&h->transfers)) return NULL;
+    if (!h->reset_sent) {
+        h->reset_sent = true;
+        return timestamp_reset_container();
+    }
+    if (h->served >= script_before_disconnect) {
+        atomic_store(&h->transfers, false);
+        atomic_store(&vanished, true);
+        failed_opens_left = script_failed_opens;
+        if (pthread_create(&h->notifier, NULL, notify_shutdown, h) == 0) h->notifier_started = true;
+        return NULL;
+    }
+    /* Handed out once the device clock has passed the newest valid event, plus USB
+       latency. */
+    int64_t t0_us = stream_time_us;
+    if (quiet_after >= 0 && h->served == quiet_after) t0_us += quiet_us;
+    int64_t newest_us = t0_us + 179;
+    int64_t due_us = caer_mock_true_host_us(newest_us) + next_latency_us();
+    int64_t now_us = caer_mock_now_us();
+    if (due_us > now_us) {
+        if (!blocking) return NULL;
+        if (due_us - now_us > 1000000) {
+            /* libcaer: about a second of 1 ms sleeps, then NULL. */
+            sleep_until_us(now_us + 1000000);
+            return NULL;
+        }
+        sleep_until_us(due_us);
+    }
+    int32_t k = h->served;
+    bool aps = h->aps_off_from < 0 || k < h->aps_off_from;
+    bool imu = h->imu_off_from < 0 || k < h->imu_off_from;
+    int32_t x = k % (sensor_width_px > 0 ? sensor_width_px : 240);
+    struct caer_event_packet_container *c = data_container(k, t0_us, x, aps, imu);
+    stream_time_us = t0_us + 1000;
+    h->served++;
+    return c;
 }

@@ -2,6 +2,12 @@
 //! (`libcaer/devices/device.h`, `devices/usb.h`, `devices/davis.h`, `events/packetContainer.h`,
 //! `events/common.h`, `events/polarity.h`, libcaer 3.x).
 //!
+//! Only functions the shared library exports are loaded by name ([`LOADED_SYMBOLS`]).
+//! The event-packet container's functions are `static inline` in
+//! `events/packetContainer.h` in every libcaer since 2.5.0, so the library does not
+//! export them ([`INLINE_IN_LIBCAER`]); faithd reads the container through its
+//! documented layout instead ([`Container`]).
+//!
 //! Event packets are read through their documented memory layout (the same layout
 //! AEDAT 3.1 files store): a 28-byte little-endian header followed by `eventCapacity`
 //! events of `eventSize` bytes; a polarity event is a `u32` data word (bit 0 valid,
@@ -10,6 +16,10 @@
 #![allow(non_camel_case_types, non_snake_case)]
 
 use std::ffi::{c_char, c_void};
+
+/// The run-time loader libcaer is opened with, for tests that open other C libraries
+/// the same way (the mock's script, a program built against libcaer's headers).
+pub use libloading;
 
 #[repr(C)]
 pub struct caer_device_handle {
@@ -35,9 +45,28 @@ pub const CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING: u8 = 1;
 pub const CAER_HOST_CONFIG_PACKETS: i8 = -3;
 pub const CAER_HOST_CONFIG_PACKETS_MAX_CONTAINER_INTERVAL: u8 = 1;
 
+/// Event types (`events/common.h`, `enum caer_default_event_types`); a DAVIS container
+/// holds one packet of each in the slot of the same number, or NULL there.
+pub const SPECIAL_EVENT: i16 = 0;
 /// Event type of polarity (DVS) packets.
 pub const POLARITY_EVENT: i16 = 1;
+pub const FRAME_EVENT: i16 = 2;
+pub const IMU6_EVENT: i16 = 3;
 pub const PACKET_HEADER_BYTES: usize = 28;
+
+/// DAVIS module and parameter addresses (`devices/davis.h`, libcaer 3.x): the run
+/// flags of the APS (frames) and the IMU, which `caerDeviceDataStart` turns on and
+/// faithd turns off again, as it uses neither.
+pub const DAVIS_CONFIG_APS: i8 = 2;
+pub const DAVIS_CONFIG_APS_RUN: u8 = 4;
+pub const DAVIS_CONFIG_IMU: i8 = 3;
+pub const DAVIS_CONFIG_IMU_RUN_ACCELEROMETER: u8 = 2;
+pub const DAVIS_CONFIG_IMU_RUN_GYROSCOPE: u8 = 3;
+pub const DAVIS_CONFIG_IMU_RUN_TEMPERATURE: u8 = 4;
+/// The chip's bias generator (`DAVIS_CONFIG_BIAS`); on a DAVIS240 parameters 0 to 19
+/// are coarse/fine current biases (`DAVIS240_CONFIG_BIAS_DIFFBN` = 0, `_ONBN` = 1,
+/// `_OFFBN` = 2, ...), 20 and 21 shifted-source biases.
+pub const DAVIS_CONFIG_BIAS: i8 = 5;
 
 pub type NotifyFn = Option<unsafe extern "C" fn(ptr: *mut c_void)>;
 
@@ -151,6 +180,11 @@ macro_rules! libcaer_functions {
             _library: libloading::Library,
         }
 
+        /// Every symbol faithd loads from libcaer, by name: all of them functions that
+        /// libcaer 3.x's shared library exports (checked against the real library by
+        /// `tests/libcaer_real.rs` when `LIBCAER_PATH` names one).
+        pub const LOADED_SYMBOLS: &[&str] = &[$(stringify!($name)),*];
+
         impl Libcaer {
             /// Opens the library at `path` (a path, or a name for the loader to find).
             pub fn load_from(path: &str) -> Result<Self, LoadError> {
@@ -198,9 +232,6 @@ libcaer_functions! {
     ) -> bool;
     caerDeviceDataStop: fn(handle: caerDeviceHandle) -> bool;
     caerDeviceDataGet: fn(handle: caerDeviceHandle) -> caerEventPacketContainer;
-    caerEventPacketContainerFree: fn(container: caerEventPacketContainer);
-    caerEventPacketContainerGetEventPacketsNumber: fn(container: caerEventPacketContainer) -> i32;
-    caerEventPacketContainerGetEventPacket: fn(container: caerEventPacketContainer, n: i32) -> caerEventPacketHeader;
     // Required, not optional: every libcaer since 1.0 exports it, and faithd must not
     // stream from a camera whose size it could not check (a DAVIS346 read as a 240x180
     // would be silently cropped).
@@ -226,65 +257,260 @@ impl Libcaer {
     }
 }
 
+/// Whether the library at `path` exports `symbol` (what `dlsym` finds): how a libcaer
+/// build is checked against [`LOADED_SYMBOLS`] and [`INLINE_IN_LIBCAER`].
+pub fn exports(path: &str, symbol: &str) -> Result<bool, LoadError> {
+    // SAFETY: loading runs the library's initialisers; libcaer's are plain.
+    let library = unsafe { libloading::Library::new(path) }
+        .map_err(|e| LoadError::NotFound(format!("{path}: {e}")))?;
+    // SAFETY: the symbol is looked up, never called.
+    let found = unsafe { library.get::<*const c_void>(symbol.as_bytes()) }.is_ok();
+    Ok(found)
+}
+
+/// A coarse/fine current bias of a DAVIS chip, as libcaer 3.x's
+/// `struct caer_bias_coarsefine` (`devices/davis.h`) describes it; [`encode`] gives
+/// the value `caerDeviceConfigSet` takes for it, laid out as libcaer's
+/// `caerBiasCoarseFineGenerate` (`src/davis.c`, 3.3.9) lays it out. Biases are written
+/// through this encoding, never as plain numbers: a raw `1` is a P-type cascode bias
+/// at zero current.
+///
+/// [`encode`]: CoarseFineBias::encode
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CoarseFineBias {
+    /// 0 to 7: the current range (11 pA upward).
+    pub coarse: u8,
+    /// 0 to 255: the fraction of the coarse current, in 255ths.
+    pub fine: u8,
+    pub enabled: bool,
+    /// N-type (true) or P-type transistor.
+    pub sex_n: bool,
+    /// Normal (true) or cascode.
+    pub type_normal: bool,
+    /// Normal (true) or low current level.
+    pub current_level_normal: bool,
+}
+
+impl CoarseFineBias {
+    /// An enabled, normal, normal-level N-type bias (libcaer's `CF_N_TYPE`).
+    pub const fn n_type(coarse: u8, fine: u8) -> Self {
+        Self {
+            coarse,
+            fine,
+            enabled: true,
+            sex_n: true,
+            type_normal: true,
+            current_level_normal: true,
+        }
+    }
+
+    /// Bit 0 enabled, 1 N-type, 2 normal type, 3 normal current level, 4..11 fine,
+    /// 12..14 coarse.
+    pub const fn encode(self) -> u32 {
+        (self.enabled as u32)
+            | (self.sex_n as u32) << 1
+            | (self.type_normal as u32) << 2
+            | (self.current_level_normal as u32) << 3
+            | (self.fine as u32) << 4
+            | ((self.coarse & 0x07) as u32) << 12
+    }
+}
+
+/// The functions libcaer 3.x defines `static inline` in `events/packetContainer.h`
+/// (every libcaer since 2.5.0) and so does not export: loading one by name fails
+/// with the real library. faithd needs three of them and implements them on
+/// [`Container`] from the header's documented layout.
+pub const INLINE_IN_LIBCAER: [&str; 3] = [
+    "caerEventPacketContainerFree",
+    "caerEventPacketContainerGetEventPacketsNumber",
+    "caerEventPacketContainerGetEventPacket",
+];
+
+/// Byte offset of `int32_t eventPacketsNumber` in libcaer 3.x's packed
+/// `struct caer_event_packet_container` (after `int64_t lowestEventTimestamp`,
+/// `int64_t highestEventTimestamp`, `int32_t eventsNumber`, `int32_t eventsValidNumber`).
+pub const CONTAINER_PACKETS_NUMBER_OFFSET: usize = 24;
+/// Byte offset of the container's array of packet pointers: right after the count,
+/// so unaligned on 64-bit targets (the struct is packed).
+pub const CONTAINER_PACKETS_OFFSET: usize = 28;
+
+unsafe extern "C" {
+    /// The C library's `free`: libcaer allocates containers and packets with `calloc`
+    /// and its own (inline) `caerEventPacketContainerFree` releases them with `free`,
+    /// in the caller's process, which is the allocator faithd must hand them back to.
+    fn free(ptr: *mut c_void);
+}
+
+/// One event-packet container from `caerDeviceDataGet`, owned: dropping it frees the
+/// container and its packets as libcaer's `caerEventPacketContainerFree` does.
+///
+/// Follows libcaer 3.x's `include/libcaer/events/packetContainer.h` (3.3.9): the
+/// struct is packed, the count is read at [`CONTAINER_PACKETS_NUMBER_OFFSET`] and
+/// packet `n`'s pointer at [`CONTAINER_PACKETS_OFFSET`] + n * pointer size, both
+/// unaligned; a slot may be NULL (a DAVIS container has four, one per event type).
+pub struct Container {
+    raw: std::ptr::NonNull<u8>,
+}
+
+// SAFETY: the container is plain heap memory handed over by libcaer; no thread of
+// libcaer touches it after DataGet returned it.
+unsafe impl Send for Container {}
+
+impl Container {
+    /// Takes ownership of what `caerDeviceDataGet` returned (`None` for NULL).
+    ///
+    /// # Safety
+    /// `raw` must be NULL or a container allocated the way libcaer allocates them
+    /// (calloc'ed container and packets), owned by no one else.
+    pub unsafe fn from_raw(raw: caerEventPacketContainer) -> Option<Self> {
+        std::ptr::NonNull::new(raw.cast::<u8>()).map(|raw| Self { raw })
+    }
+
+    /// `caerEventPacketContainerGetEventPacketsNumber`: the number of slots (never
+    /// negative here, whatever the memory says).
+    pub fn packets_number(&self) -> i32 {
+        // SAFETY: the count lies within the container's fixed part, which every
+        // container has.
+        let n = unsafe {
+            self.raw
+                .as_ptr()
+                .add(CONTAINER_PACKETS_NUMBER_OFFSET)
+                .cast::<i32>()
+                .read_unaligned()
+        };
+        n.max(0)
+    }
+
+    /// `caerEventPacketContainerGetEventPacket`: packet `n`, or `None` when the slot
+    /// is NULL or `n` is out of range.
+    pub fn packet(&self, n: i32) -> Option<caerEventPacketHeader> {
+        if n < 0 || n >= self.packets_number() {
+            return None;
+        }
+        let offset = CONTAINER_PACKETS_OFFSET + n as usize * std::mem::size_of::<*mut u8>();
+        // SAFETY: slot `n` exists (checked above); the array is unaligned.
+        let packet = unsafe {
+            self.raw
+                .as_ptr()
+                .add(offset)
+                .cast::<caerEventPacketHeader>()
+                .read_unaligned()
+        };
+        (!packet.is_null()).then_some(packet)
+    }
+
+    /// The non-NULL packets, in slot order.
+    pub fn packets(&self) -> impl Iterator<Item = caerEventPacketHeader> + '_ {
+        (0..self.packets_number()).filter_map(|n| self.packet(n))
+    }
+
+    /// Hands the container back without freeing it.
+    pub fn into_raw(self) -> caerEventPacketContainer {
+        let raw = self.raw.as_ptr().cast();
+        std::mem::forget(self);
+        raw
+    }
+}
+
+impl Drop for Container {
+    /// `caerEventPacketContainerFree`: every non-NULL packet, then the container.
+    fn drop(&mut self) {
+        // SAFETY: `from_raw`'s contract: calloc'ed by libcaer, owned by us alone.
+        unsafe {
+            for packet in self.packets() {
+                free(packet.cast());
+            }
+            free(self.raw.as_ptr().cast());
+        }
+    }
+}
+
 /// The C mock of libcaer (`mock/caer_mock.c`), built as a shared library for tests:
 /// the same functions over a scripted stream, loaded exactly as libcaer is.
 #[cfg(feature = "mock")]
 pub mod mock {
+    use super::caerEventPacketContainer;
+
     /// Path of the mock library built by this crate's build script.
     pub const LIBRARY: &str = concat!(env!("OUT_DIR"), "/libcaer_mock.so");
 
-    /// The mock's script controls, from the same loaded library (so the same state).
-    pub struct Script {
+    /// `caer_mock_fail` flags: what the device refuses.
+    pub const FAIL_DEFAULT_CONFIG: i32 = 1;
+    pub const FAIL_DATA_START: i32 = 2;
+    /// `caerDavisInfoGet` returns all zeros (no DVS size).
+    pub const FAIL_INFO: i32 = 4;
+
+    /// `caer_mock_count` subjects.
+    pub const COUNT_STARTS: i32 = 0;
+    pub const COUNT_STOPS: i32 = 1;
+    pub const COUNT_CLOSES: i32 = 2;
+    pub const COUNT_SHUTDOWN_CALLS: i32 = 3;
+
+    macro_rules! script {
+        ($($(#[$doc:meta])* $field:ident = $symbol:literal: fn($($ty:ty),*) $(-> $ret:ty)?;)*) => {
+            /// The mock's script controls, from the same loaded library (so the same
+            /// state).
+            pub struct Script {
+                $($(#[$doc])* pub $field: unsafe extern "C" fn($($ty),*) $(-> $ret)?,)*
+                _library: libloading::Library,
+            }
+
+            impl Script {
+                pub fn load() -> Self {
+                    // SAFETY: the mock's functions have exactly these C signatures.
+                    unsafe {
+                        let library = libloading::Library::new(LIBRARY).expect("the mock libcaer");
+                        Self {
+                            $($field: *library
+                                .get(concat!($symbol, "\0").as_bytes())
+                                .expect($symbol),)*
+                            _library: library,
+                        }
+                    }
+                }
+            }
+        };
+    }
+
+    script! {
         /// Containers served before the device "vanishes", and how many opens fail
-        /// after that before it "returns". Resets the counters.
-        pub set: unsafe extern "C" fn(containers_before_disconnect: i32, failed_opens_after: i32),
+        /// after that before it "returns". Resets every other control and counter.
+        set = "caer_mock_script": fn(i32, i32);
         /// Opens attempted so far (successful or not).
-        pub open_attempts: unsafe extern "C" fn() -> i32,
+        open_attempts = "caer_mock_open_attempts": fn() -> i32;
         /// Last value set for (module, parameter), or -1.
-        pub config_value: unsafe extern "C" fn(mod_addr: i8, param_addr: u8) -> i64,
+        config_value = "caer_mock_config_value": fn(i8, u8) -> i64;
+        /// Whether the caller's last write of (module, parameter) came while the
+        /// device was started (after a successful DataStart): 1, 0, or -1 when the
+        /// caller never wrote it (DataStart's and DataStop's own writes do not count).
+        config_written_while_started = "caer_mock_config_written_while_started": fn(i8, u8) -> i32;
         /// The DVS size `caerDavisInfoGet` reports (240x180 until set; `set` restores it).
-        pub sensor: unsafe extern "C" fn(width_px: i16, height_px: i16),
+        sensor = "caer_mock_sensor": fn(i16, i16);
+        /// What the device refuses from now on: a sum of the `FAIL_*` flags.
+        fail = "caer_mock_fail": fn(i32);
+        /// After this many containers the scene goes dark for this long (us of device
+        /// time): a blocking DataGet returns NULL after about a second meanwhile.
+        quiet = "caer_mock_quiet": fn(i32, i64);
         /// The device clock: it runs at `rate` times real time (1.02: 2 % fast) and each
         /// container arrives a uniform random `latency_min_us..=latency_max_us` after its
         /// newest event. Containers are paced in real time. `set` restores (1, 0, 0).
-        pub clock: unsafe extern "C" fn(rate: f64, latency_min_us: i32, latency_max_us: i32),
+        clock = "caer_mock_clock": fn(f64, i32, i32);
         /// CLOCK_MONOTONIC in microseconds (Rust's `Instant` on Linux).
-        pub now_us: unsafe extern "C" fn() -> i64,
+        now_us = "caer_mock_now_us": fn() -> i64;
         /// The CLOCK_MONOTONIC time (us) at which the device clock of the current
         /// session read `device_us`: when an event stamped so really happened.
-        pub true_host_us: unsafe extern "C" fn(device_us: i64) -> i64,
-        _library: libloading::Library,
-    }
-
-    impl Script {
-        pub fn load() -> Self {
-            // SAFETY: the mock's functions have exactly these C signatures.
-            unsafe {
-                let library = libloading::Library::new(LIBRARY).expect("the mock libcaer");
-                Self {
-                    set: *library
-                        .get(b"caer_mock_script\0")
-                        .expect("caer_mock_script"),
-                    open_attempts: *library
-                        .get(b"caer_mock_open_attempts\0")
-                        .expect("caer_mock_open_attempts"),
-                    config_value: *library
-                        .get(b"caer_mock_config_value\0")
-                        .expect("caer_mock_config_value"),
-                    sensor: *library
-                        .get(b"caer_mock_sensor\0")
-                        .expect("caer_mock_sensor"),
-                    clock: *library.get(b"caer_mock_clock\0").expect("caer_mock_clock"),
-                    now_us: *library
-                        .get(b"caer_mock_now_us\0")
-                        .expect("caer_mock_now_us"),
-                    true_host_us: *library
-                        .get(b"caer_mock_true_host_us\0")
-                        .expect("caer_mock_true_host_us"),
-                    _library: library,
-                }
-            }
-        }
+        true_host_us = "caer_mock_true_host_us": fn(i64) -> i64;
+        /// How many DataStarts succeeded, DataStops, Closes, shutdown callbacks
+        /// (`COUNT_*`).
+        count = "caer_mock_count": fn(i32) -> i32;
+        /// Packets of an event type handed out since `set`.
+        packets_served = "caer_mock_packets_served": fn(i32) -> i32;
+        /// Data container `k` as DataGet builds it, APS and IMU running: (k, first
+        /// device time in us, edge column). Owned by the caller.
+        container = "caer_mock_container": fn(i32, i64, i32) -> caerEventPacketContainer;
+        /// The container libcaer sends alone after a timestamp reset. Owned by the
+        /// caller.
+        timestamp_reset_container = "caer_mock_timestamp_reset_container": fn() -> caerEventPacketContainer;
     }
 }
 
@@ -297,32 +523,50 @@ pub struct Polarity {
     pub on: bool,
 }
 
-/// Reads the valid polarity events of one packet, appending to `out`.
+/// Reads the valid polarity events of one packet, appending to `out`; `false` (and
+/// nothing read) for a packet of another type or with an inconsistent header.
+///
+/// Follows libcaer 3.x's `events/common.h` (the packed 28-byte header: type at 0,
+/// eventSize at 4, eventTSOffset at 8, eventTSOverflow at 12, eventCapacity at 16,
+/// eventNumber at 20) and `events/polarity.h` (the data word, then the timestamp at
+/// eventTSOffset; full time = overflow << 31 | timestamp). Only the first
+/// `eventNumber` events are filled; the rest of the capacity is zeroed memory.
 ///
 /// # Safety
-/// `packet` must point to a live libcaer event packet (header and events).
+/// `packet` must be NULL or point to a live libcaer event packet (header and
+/// `eventCapacity` events).
 pub unsafe fn read_polarity_packet(packet: caerEventPacketHeader, out: &mut Vec<Polarity>) -> bool {
     if packet.is_null() {
         return false;
     }
-    let i32_at = |off: usize| unsafe { i32::from_le_bytes(*(packet.add(off) as *const [u8; 4])) };
-    let event_type = unsafe { i16::from_le_bytes(*(packet as *const [u8; 2])) };
+    // SAFETY: the header's 28 bytes are there (caller's contract); events are read
+    // only below `eventNumber`, checked against the capacity first.
+    let i32_at = |off: usize| unsafe { packet.add(off).cast::<i32>().read_unaligned() };
+    let event_type = unsafe { packet.cast::<i16>().read_unaligned() };
     if event_type != POLARITY_EVENT {
         return false;
     }
     let event_size = i32_at(4);
+    let ts_offset = i32_at(8);
     let ts_overflow = i64::from(i32_at(12));
+    let capacity = i32_at(16);
     let event_number = i32_at(20);
-    if event_size < 8 || event_number < 0 {
+    if event_size < 8
+        || !(0..=event_size - 4).contains(&ts_offset)
+        || event_number < 0
+        || event_number > capacity
+    {
         return false;
     }
+    let (event_size, ts_offset) = (event_size as usize, ts_offset as usize);
+    out.reserve(event_number as usize);
     for k in 0..event_number as usize {
-        let base = PACKET_HEADER_BYTES + k * event_size as usize;
+        let base = PACKET_HEADER_BYTES + k * event_size;
         let data = i32_at(base) as u32;
         if data & 1 == 0 {
             continue;
         }
-        let ts = i64::from(i32_at(base + 4));
+        let ts = i64::from(i32_at(base + ts_offset));
         out.push(Polarity {
             t_us: (ts_overflow << 31) | ts,
             x: ((data >> 17) & 0x7FFF) as u16,
@@ -331,4 +575,170 @@ pub unsafe fn read_polarity_packet(packet: caerEventPacketHeader, out: &mut Vec<
         });
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    unsafe extern "C" {
+        fn calloc(count: usize, size: usize) -> *mut c_void;
+    }
+
+    /// A packet as libcaer's `caerEventPacketAllocate` makes one (calloc'ed, header
+    /// filled in), with `events` (data word, timestamp) of 8 bytes each.
+    fn packet(event_type: i16, capacity: i32, events: &[(u32, i32)]) -> *mut u8 {
+        let bytes = PACKET_HEADER_BYTES + capacity as usize * 8;
+        // SAFETY: a fresh zeroed allocation of `bytes`, written within it.
+        unsafe {
+            let p = calloc(1, bytes).cast::<u8>();
+            let header: [i32; 6] = [8, 4, 0, capacity, events.len() as i32, events.len() as i32];
+            p.cast::<i16>().write_unaligned(event_type);
+            p.add(2).cast::<i16>().write_unaligned(1);
+            for (k, v) in header.iter().enumerate() {
+                p.add(4 + 4 * k).cast::<i32>().write_unaligned(*v);
+            }
+            for (k, &(data, ts)) in events.iter().enumerate() {
+                let e = p.add(PACKET_HEADER_BYTES + 8 * k);
+                e.cast::<u32>().write_unaligned(data);
+                e.add(4).cast::<i32>().write_unaligned(ts);
+            }
+            p
+        }
+    }
+
+    /// A container laid out as packetContainer.h lays it out: packed, the count at 24
+    /// and the pointers from 28, unaligned.
+    fn container(slots: &[*mut u8]) -> caerEventPacketContainer {
+        let pointer = std::mem::size_of::<*mut u8>();
+        // SAFETY: a fresh zeroed allocation, written within it.
+        unsafe {
+            let c = calloc(1, CONTAINER_PACKETS_OFFSET + std::mem::size_of_val(slots)).cast::<u8>();
+            c.cast::<i64>().write_unaligned(-1);
+            c.add(8).cast::<i64>().write_unaligned(-1);
+            c.add(CONTAINER_PACKETS_NUMBER_OFFSET)
+                .cast::<i32>()
+                .write_unaligned(slots.len() as i32);
+            for (n, &p) in slots.iter().enumerate() {
+                c.add(CONTAINER_PACKETS_OFFSET + n * pointer)
+                    .cast::<*mut u8>()
+                    .write_unaligned(p);
+            }
+            c.cast()
+        }
+    }
+
+    fn polarity_word(x: u32, y: u32, on: bool, valid: bool) -> u32 {
+        x << 17 | y << 2 | u32::from(on) << 1 | u32::from(valid)
+    }
+
+    #[test]
+    fn a_packed_container_gives_its_slots_and_skips_the_null_ones() {
+        let polarity = packet(
+            POLARITY_EVENT,
+            16,
+            &[
+                (polarity_word(239, 179, true, true), 100),
+                (polarity_word(5, 6, false, false), 101),
+                (polarity_word(0, 1, false, true), 102),
+            ],
+        );
+        let imu = packet(IMU6_EVENT, 4, &[(1, 150)]);
+        let raw = container(&[std::ptr::null_mut(), polarity, std::ptr::null_mut(), imu]);
+        // SAFETY: built as libcaer builds them, owned here.
+        let c = unsafe { Container::from_raw(raw) }.unwrap();
+        assert_eq!(c.packets_number(), 4);
+        assert_eq!(c.packet(0), None);
+        assert_eq!(c.packet(1), Some(polarity));
+        assert_eq!(c.packet(3), Some(imu));
+        assert_eq!(c.packet(4), None);
+        assert_eq!(c.packet(-1), None);
+        assert_eq!(c.packets().collect::<Vec<_>>(), [polarity, imu]);
+        let mut out = Vec::new();
+        for p in c.packets() {
+            // SAFETY: live packets of a live container.
+            unsafe { read_polarity_packet(p, &mut out) };
+        }
+        let expected = [
+            Polarity {
+                t_us: 100,
+                x: 239,
+                y: 179,
+                on: true,
+            },
+            Polarity {
+                t_us: 102,
+                x: 0,
+                y: 1,
+                on: false,
+            },
+        ];
+        assert_eq!(
+            out, expected,
+            "the invalid event and the IMU packet skipped"
+        );
+        // Dropped: both packets and the container go back to libc's free.
+        drop(c);
+        // SAFETY: NULL is no container.
+        assert!(unsafe { Container::from_raw(std::ptr::null_mut()) }.is_none());
+    }
+
+    #[test]
+    fn a_polarity_packet_claiming_more_events_than_its_capacity_is_not_read() {
+        let p = packet(POLARITY_EVENT, 2, &[(polarity_word(1, 1, true, true), 7)]);
+        // SAFETY: the header lies within the allocation.
+        unsafe { p.add(20).cast::<i32>().write_unaligned(3) };
+        let raw = container(&[p]);
+        // SAFETY: built as libcaer builds them, owned here.
+        let c = unsafe { Container::from_raw(raw) }.unwrap();
+        let mut out = Vec::new();
+        // SAFETY: a live packet.
+        assert!(!unsafe { read_polarity_packet(c.packet(0).unwrap(), &mut out) });
+        assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_overflow_counter_extends_event_times_past_31_bits() {
+        let p = packet(POLARITY_EVENT, 1, &[(polarity_word(1, 2, true, true), 5)]);
+        // SAFETY: the header lies within the allocation.
+        unsafe { p.add(12).cast::<i32>().write_unaligned(2) };
+        let c = unsafe { Container::from_raw(container(&[p])) }.unwrap();
+        let mut out = Vec::new();
+        // SAFETY: a live packet.
+        unsafe { read_polarity_packet(c.packet(0).unwrap(), &mut out) };
+        assert_eq!(out[0].t_us, (2 << 31) | 5);
+    }
+
+    #[test]
+    fn no_inline_function_is_loaded_by_name() {
+        for name in INLINE_IN_LIBCAER {
+            assert!(!LOADED_SYMBOLS.contains(&name), "{name} is static inline");
+        }
+        assert!(
+            LOADED_SYMBOLS
+                .iter()
+                .all(|s| !s.starts_with("caerEventPacket"))
+        );
+    }
+
+    #[test]
+    fn coarse_fine_biases_encode_as_libcaer_generates_them() {
+        // libcaer 3.3.9's DAVIS240 defaults (src/davis_common.h) for DiffBn, OnBn, OffBn.
+        assert_eq!(CoarseFineBias::n_type(4, 39).encode(), 17023);
+        assert_eq!(CoarseFineBias::n_type(5, 255).encode(), 24575);
+        assert_eq!(CoarseFineBias::n_type(4, 0).encode(), 16399);
+        let raw_one = CoarseFineBias {
+            coarse: 0,
+            fine: 0,
+            enabled: true,
+            sex_n: false,
+            type_normal: false,
+            current_level_normal: false,
+        };
+        assert_eq!(
+            raw_one.encode(),
+            1,
+            "what [5, 0, 1] wrote: P-type cascode, no current"
+        );
+    }
 }

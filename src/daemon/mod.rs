@@ -130,7 +130,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
                     Duration::from_secs(2),
                 ) {
                     supervise::report_fault(supervise::Fault::Refused {
-                        key: "pipeline.camera.width_px",
+                        key: e.key(),
                         reason: e.to_string(),
                     });
                 }

@@ -3,30 +3,59 @@
 //!
 //! Opens the first DAVIS on USB, refuses it for good when its DVS size is not the
 //! configured one (a DAVIS346 read as a 240x180 would be silently cropped, and the
-//! intrinsics would be wrong with it), applies the configured (module, parameter,
-//! value) settings after libcaer's defaults, and hands polarity events to the pipeline
-//! on the daemon's clock: the device clock is mapped by a [`DeviceClock`], which removes
-//! USB latency and follows the crystal's drift. When the device vanishes (libcaer's
-//! shutdown callback, or no data), the source says so, sends nothing (the pipeline goes
-//! unhealthy, the safety gate releases), and keeps trying to reopen it with backoff;
-//! each session maps its clock afresh.
+//! intrinsics would be wrong with it), starts the transfer, turns the APS and IMU off
+//! again (faithd uses neither), applies the configured (module, parameter, value)
+//! settings, and hands polarity events to the pipeline on the daemon's clock: the
+//! device clock is mapped by a [`DeviceClock`], which removes USB latency and follows
+//! the crystal's drift. When the device vanishes (libcaer's shutdown callback), the
+//! source says so, sends nothing (the pipeline goes unhealthy, the safety gate
+//! releases), and keeps trying to reopen it with backoff; each session maps its clock
+//! afresh.
+//!
+//! The order of calls follows libcaer 3.x's DAVIS driver (`src/davis.c`, 3.3.9):
+//! `caerDeviceDataStart` writes every run flag on (DVS, APS, IMU, external input)
+//! once its transfers run, so whatever is set before it about those is undone;
+//! `caerDeviceDataStop` empties a ring buffer that only a successful DataStart made,
+//! so it is called only then ([`Device`]); `caerDeviceClose` always.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::time::Duration;
 
-use libcaer_sys::{self as caer, Libcaer};
+use libcaer_sys::{self as caer, Container, Libcaer};
 
 use crate::clock::DaemonClock;
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
 use faithd_core::event::{Event, Polarity};
 
-/// One libcaer configuration write.
+/// One libcaer configuration write: (module, parameter, value).
 pub type Setting = (i8, u8, u32);
 
+/// What faithd writes itself after `caerDeviceDataStart`, which turned them on: the
+/// APS (frames) and the IMU's three run flags. Their packets would take USB bandwidth
+/// and the camera thread's time for nothing, as faithd reads only polarity events.
+pub const OWN_SETTINGS: [Setting; 4] = [
+    (caer::DAVIS_CONFIG_APS, caer::DAVIS_CONFIG_APS_RUN, 0),
+    (
+        caer::DAVIS_CONFIG_IMU,
+        caer::DAVIS_CONFIG_IMU_RUN_ACCELEROMETER,
+        0,
+    ),
+    (
+        caer::DAVIS_CONFIG_IMU,
+        caer::DAVIS_CONFIG_IMU_RUN_GYROSCOPE,
+        0,
+    ),
+    (
+        caer::DAVIS_CONFIG_IMU,
+        caer::DAVIS_CONFIG_IMU_RUN_TEMPERATURE,
+        0,
+    ),
+];
+
 unsafe extern "C" fn on_shutdown(ptr: *mut std::ffi::c_void) {
-    // SAFETY: `ptr` is the `AtomicBool` that `serve_device` keeps alive until after
-    // caerDeviceDataStop/Close, which end the callbacks.
+    // SAFETY: `ptr` is the `AtomicBool` a [`Device`] owns and frees only after
+    // caerDeviceDataStop/Close, which end libcaer's USB thread, the caller.
     let flag = unsafe { &*(ptr as *const AtomicBool) };
     flag.store(true, Ordering::SeqCst);
 }
@@ -45,7 +74,7 @@ impl std::fmt::Display for SensorSize {
 }
 
 /// A camera that cannot be used as configured: reopening it will not help, so the
-/// source stops.
+/// source stops and the daemon refuses to go on (exit 2, not restarted).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum CameraError {
     #[error(
@@ -55,6 +84,24 @@ pub enum CameraError {
         camera: SensorSize,
         configured: SensorSize,
     },
+    /// libcaer refused one of `source.caer_settings`: a (module, parameter) this
+    /// camera does not have, or a value it does not take. Retrying would be refused
+    /// the same way.
+    #[error(
+        "entry [{index}] = [{}, {}, {}] refused by libcaer: this camera has no such (module, parameter) or does not take the value; fix or remove it (addresses in libcaer's devices/davis.h)",
+        setting.0, setting.1, setting.2
+    )]
+    SettingRefused { index: usize, setting: Setting },
+}
+
+impl CameraError {
+    /// The configuration key to change.
+    pub fn key(&self) -> &'static str {
+        match self {
+            CameraError::SizeMismatch { .. } => "pipeline.camera.width_px",
+            CameraError::SettingRefused { .. } => "source.caer_settings",
+        }
+    }
 }
 
 /// Why a device session ended.
@@ -69,10 +116,10 @@ pub enum Ended {
 /// Why a device session could not run.
 #[derive(Debug, PartialEq, Eq)]
 pub enum SessionError {
-    /// Worth another try: no camera yet, a refused setting, a transfer that would not
-    /// start.
+    /// Worth another try: no camera yet, a size it could not report, a transfer that
+    /// would not start.
     Retry(String),
-    /// Not worth another try: the camera is not the one configured.
+    /// Not worth another try: the camera or a setting contradicts the configuration.
     Refused(CameraError),
 }
 
@@ -85,9 +132,12 @@ impl std::fmt::Display for SessionError {
     }
 }
 
+/// What `serve_device` says when libcaer finds no camera to open.
+pub const NO_CAMERA: &str = "no DAVIS camera could be opened (none on USB, or no permission on its device: see the udev rules)";
+
 /// Runs until the pipeline hangs up (`Ok`), reopening the device whenever it is lost,
-/// or until the camera turns out not to be the configured one (`Err`: a configuration
-/// error, which no retry mends).
+/// or until the camera or a setting contradicts the configuration (`Err`: a
+/// configuration error, which no retry mends).
 pub fn run(
     lib: &Libcaer,
     settings: Vec<Setting>,
@@ -114,6 +164,69 @@ pub fn run(
     }
 }
 
+/// An open libcaer device. Dropping it stops the data transfer if, and only if, it
+/// was started, then closes the device; the shutdown flag libcaer's USB thread writes
+/// is freed only after both, which end that thread.
+struct Device<'a> {
+    lib: &'a Libcaer,
+    handle: caer::caerDeviceHandle,
+    started: bool,
+    lost: Box<AtomicBool>,
+}
+
+impl<'a> Device<'a> {
+    fn open(lib: &'a Libcaer) -> Option<Self> {
+        // SAFETY: a plain FFI call; a non-NULL handle is closed exactly once, on drop.
+        let handle =
+            unsafe { (lib.caerDeviceOpen)(1, caer::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null()) };
+        (!handle.is_null()).then(|| Self {
+            lib,
+            handle,
+            started: false,
+            lost: Box::new(AtomicBool::new(false)),
+        })
+    }
+
+    /// `caerDeviceConfigSet`: whether libcaer took it.
+    fn set(&self, (module, param, value): Setting) -> bool {
+        // SAFETY: the handle is open; settings are plain values.
+        unsafe { (self.lib.caerDeviceConfigSet)(self.handle, module, param, value) }
+    }
+
+    /// `caerDeviceDataStart`, with the shutdown callback on this device's flag.
+    fn start(&mut self) -> bool {
+        let flag = &*self.lost as *const AtomicBool as *mut std::ffi::c_void;
+        // SAFETY: the handle is open; the flag lives until after DataStop and Close.
+        self.started = unsafe {
+            (self.lib.caerDeviceDataStart)(
+                self.handle,
+                None,
+                None,
+                std::ptr::null_mut(),
+                Some(on_shutdown),
+                flag,
+            )
+        };
+        self.started
+    }
+
+    fn lost(&self) -> bool {
+        self.lost.load(Ordering::SeqCst)
+    }
+}
+
+impl Drop for Device<'_> {
+    fn drop(&mut self) {
+        // SAFETY: the handle is open; DataStop only after a successful DataStart.
+        unsafe {
+            if self.started {
+                (self.lib.caerDeviceDataStop)(self.handle);
+            }
+            (self.lib.caerDeviceClose)(&mut self.handle);
+        }
+    }
+}
+
 /// Opens, configures and streams one device session.
 pub fn serve_device(
     lib: &Libcaer,
@@ -122,36 +235,19 @@ pub fn serve_device(
     clock: DaemonClock,
     batches: &SyncSender<Vec<Event>>,
 ) -> Result<Ended, SessionError> {
-    // SAFETY: plain FFI calls on a handle libcaer gave us, closed exactly once below.
-    let mut handle =
-        unsafe { (lib.caerDeviceOpen)(1, caer::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null()) };
-    if handle.is_null() {
-        return Err(SessionError::Retry(
-            "no DAVIS camera could be opened".into(),
-        ));
-    }
-    let lost = Box::new(AtomicBool::new(false));
-    let result = check_size(lib, handle, expected)
-        .and_then(|()| stream(lib, handle, settings, clock, batches, &lost));
-    // SAFETY: stop before close; the callback flag outlives both.
-    unsafe {
-        (lib.caerDeviceDataStop)(handle);
-        (lib.caerDeviceClose)(&mut handle);
-    }
-    drop(lost);
-    result
+    let mut device = Device::open(lib).ok_or_else(|| SessionError::Retry(NO_CAMERA.into()))?;
+    check_size(&device, expected)?;
+    start(&mut device, settings)?;
+    tracing::info!("camera open: streaming");
+    stream(&device, clock, batches)
 }
 
 /// Refuses a camera whose DVS size is not the configured one. A size libcaer cannot
 /// report (all zeros: the handle went bad) is worth another try.
-fn check_size(
-    lib: &Libcaer,
-    handle: caer::caerDeviceHandle,
-    expected: SensorSize,
-) -> Result<(), SessionError> {
-    // SAFETY: `handle` is open; the struct is returned by value (layout pinned in
+fn check_size(device: &Device<'_>, expected: SensorSize) -> Result<(), SessionError> {
+    // SAFETY: the handle is open; the struct is returned by value (layout pinned in
     // libcaer-sys).
-    let info = unsafe { (lib.caerDavisInfoGet)(handle) };
+    let info = unsafe { (device.lib.caerDavisInfoGet)(device.handle) };
     let Some((width_px, height_px)) = info.dvs_size_px() else {
         return Err(SessionError::Retry(
             "the camera did not report its DVS size".into(),
@@ -170,40 +266,76 @@ fn check_size(
     Ok(())
 }
 
+/// Sends libcaer's defaults, asks for blocking data exchange, starts the transfer,
+/// then turns off what DataStart turned on and faithd does not use
+/// ([`OWN_SETTINGS`]) and applies the configured settings, in that order, so that
+/// nothing DataStart writes undoes them.
+fn start(device: &mut Device<'_>, settings: &[Setting]) -> Result<(), SessionError> {
+    // SAFETY: the handle is open.
+    if !unsafe { (device.lib.caerDeviceSendDefaultConfig)(device.handle) } {
+        return Err(SessionError::Retry("default configuration refused".into()));
+    }
+    let blocking = (
+        caer::CAER_HOST_CONFIG_DATAEXCHANGE,
+        caer::CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING,
+        1,
+    );
+    if !device.set(blocking) {
+        return Err(SessionError::Retry("blocking data exchange refused".into()));
+    }
+    if !device.start() {
+        return Err(SessionError::Retry("data transfer could not start".into()));
+    }
+    for own in OWN_SETTINGS {
+        if !device.set(own) {
+            // Not fatal: the packets are discarded either way, at some USB cost.
+            tracing::warn!(
+                "camera: turning off ({}, {}) refused; its packets will be discarded",
+                own.0,
+                own.1
+            );
+        }
+    }
+    for (index, &setting) in settings.iter().enumerate() {
+        if !device.set(setting) {
+            return Err(SessionError::Refused(CameraError::SettingRefused {
+                index,
+                setting,
+            }));
+        }
+    }
+    Ok(())
+}
+
 fn stream(
-    lib: &Libcaer,
-    handle: caer::caerDeviceHandle,
-    settings: &[Setting],
+    device: &Device<'_>,
     clock: DaemonClock,
     batches: &SyncSender<Vec<Event>>,
-    lost: &AtomicBool,
 ) -> Result<Ended, SessionError> {
-    start(lib, handle, settings, lost).map_err(SessionError::Retry)?;
-    tracing::info!("camera open: streaming");
     let mut device_clock = DeviceClock::new(DeviceClockConfig::default());
     let mut polarity = Vec::new();
     loop {
-        // SAFETY: `handle` is open and streaming; the container is freed below.
-        let container = unsafe { (lib.caerDeviceDataGet)(handle) };
-        if container.is_null() {
-            if lost.load(Ordering::SeqCst) {
+        // SAFETY: the handle is open and streaming; the container is ours to free.
+        let raw = unsafe { (device.lib.caerDeviceDataGet)(device.handle) };
+        // SAFETY: libcaer allocated it (calloc) and handed it over.
+        let Some(container) = (unsafe { Container::from_raw(raw) }) else {
+            // NULL: no data for about a second (blocking mode gives up), or the
+            // transfers stopped because the device went away; libcaer's USB thread
+            // then calls the shutdown callback, maybe a little after.
+            if device.lost() {
                 return Ok(Ended::DeviceLost);
             }
             std::thread::sleep(Duration::from_micros(500));
             continue;
-        }
+        };
         // Taken before parsing: the nearer to the arrival, the lower the envelope.
         let arrival_us = clock.now_us();
         polarity.clear();
-        // SAFETY: the container and its packets are live until freed.
-        unsafe {
-            let n = (lib.caerEventPacketContainerGetEventPacketsNumber)(container);
-            for k in 0..n.max(0) {
-                let packet = (lib.caerEventPacketContainerGetEventPacket)(container, k);
-                caer::read_polarity_packet(packet, &mut polarity);
-            }
-            (lib.caerEventPacketContainerFree)(container);
+        for packet in container.packets() {
+            // SAFETY: the packet lives as long as the container, freed below.
+            unsafe { caer::read_polarity_packet(packet, &mut polarity) };
         }
+        drop(container);
         let Some(batch) = on_daemon_clock(&mut device_clock, &polarity, arrival_us) else {
             continue;
         };
@@ -236,44 +368,6 @@ fn on_daemon_clock(
         })
         .collect();
     Some(batch)
-}
-
-/// Sends libcaer's defaults and the configured settings, and starts the transfer.
-fn start(
-    lib: &Libcaer,
-    handle: caer::caerDeviceHandle,
-    settings: &[Setting],
-    lost: &AtomicBool,
-) -> Result<(), String> {
-    // SAFETY: `handle` is open; settings are plain values.
-    unsafe {
-        if !(lib.caerDeviceSendDefaultConfig)(handle) {
-            return Err("default configuration refused".into());
-        }
-        (lib.caerDeviceConfigSet)(
-            handle,
-            caer::CAER_HOST_CONFIG_DATAEXCHANGE,
-            caer::CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING,
-            1,
-        );
-        for &(module, param, value) in settings {
-            if !(lib.caerDeviceConfigSet)(handle, module, param, value) {
-                return Err(format!("setting ({module}, {param}) = {value} refused"));
-            }
-        }
-        let flag = lost as *const AtomicBool as *mut std::ffi::c_void;
-        if !(lib.caerDeviceDataStart)(
-            handle,
-            None,
-            None,
-            std::ptr::null_mut(),
-            Some(on_shutdown),
-            flag,
-        ) {
-            return Err("data transfer could not start".into());
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]
