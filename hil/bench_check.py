@@ -69,14 +69,17 @@ def open_msp(device, baud):
 
 
 def test_roll(conn, args, msp):
-    """Streams MSP_SET_RAW_RC as faithd does: the centre for args.warmup_s (iNav applies
-    MSP override only after 200 ms + failsafe_recovery_delay of fresh frames), one roll
-    for args.roll_s, then the centre again; measures iNav's echo in RC_CHANNELS."""
+    """Streams MSP_SET_RAW_RC as faithd does: a frame every 40 ms (faithd's roll frame
+    period; iNav's serial task serves one MSP command per port every 10 ms, and with its
+    read-back requests faithd uses half of that), the centre for args.warmup_s (iNav
+    applies MSP override only after 200 ms + failsafe_recovery_delay of fresh frames),
+    one roll for args.roll_s, then the centre again; measures iNav's echo in
+    RC_CHANNELS."""
     value = 1500 + args.deflection_us
     echo_at = None
     echo_end = None
     centred_at = None
-    period = 0.02
+    period = 0.04
     start = time.monotonic()
     roll_start = start + args.warmup_s
     roll_end = roll_start + args.roll_s

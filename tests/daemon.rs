@@ -397,7 +397,8 @@ fn a_daemon_restarted_after_a_kill_mid_roll_releases_first() {
     daemon.signal(Signal::SIGKILL);
     let killed = Instant::now();
     // The killed daemon's last frames may still be in the terminal's buffer: the
-    // restarted one's start when no frame has come for 100 ms.
+    // restarted one's start when no frame has come for 100 ms (longer than the unit
+    // waits before it restarts faithd).
     let mut before = mock.msp.frames.lock().unwrap().len();
     loop {
         std::thread::sleep(Duration::from_millis(100));
@@ -407,6 +408,7 @@ fn a_daemon_restarted_after_a_kill_mid_roll_releases_first() {
         }
         before = now;
     }
+    std::thread::sleep(common::unit_restart_delay().saturating_sub(killed.elapsed()));
     let daemon = Daemon::start_mock(&mock, "");
     assert!(
         mock.msp

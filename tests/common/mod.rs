@@ -74,3 +74,28 @@ pub fn point_symlink(link: &Path, target: &Path) {
     std::os::unix::fs::symlink(target, &tmp).unwrap();
     std::fs::rename(&tmp, link).unwrap();
 }
+
+/// How long systemd waits before it restarts a faithd that died (`RestartSec=` of the
+/// shipped unit, systemd/faithd.service): what the tests of a kill wait too, so the
+/// figures they measure are those a builder gets.
+pub fn unit_restart_delay() -> Duration {
+    let unit = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/systemd/faithd.service"
+    ))
+    .expect("the unit");
+    let value = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("RestartSec="))
+        .expect("RestartSec= in the unit")
+        .trim();
+    match value.strip_suffix("ms") {
+        Some(ms) => Duration::from_millis(ms.parse().expect("RestartSec in ms")),
+        None => Duration::from_secs_f64(
+            value
+                .trim_end_matches('s')
+                .parse()
+                .expect("RestartSec in s"),
+        ),
+    }
+}
