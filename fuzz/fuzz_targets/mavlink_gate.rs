@@ -35,6 +35,7 @@ fuzz_target!(|data: &[u8]| {
     };
     let command = CommandPathStatus {
         setup_refused: false,
+        setup_changed: false,
         ready_at_us: Some(0),
         roll_not_in_effect: false,
         fc: Some(FcStatus {
@@ -42,6 +43,7 @@ fuzz_target!(|data: &[u8]| {
             armed: true,
             failsafe: false,
             override_on: true,
+            angle: true,
         }),
     };
     let state = gate::evaluate(&GateConfig::default(), &vehicle, &pipeline, &command, rx_us);

@@ -20,6 +20,7 @@ fuzz_target!(|data: &[u8]| {
     let bits = StatusBits {
         failsafe: Some(split % 64),
         msp_override: split / 4,
+        angle: Some(split / 2),
     };
     for f in &frames {
         assert!(f.payload.len() <= 1024);
