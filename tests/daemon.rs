@@ -26,8 +26,8 @@ const ROLL_FRAME_PERIOD: Duration = Duration::from_millis(40);
 /// (iNav's next serial task run, up to 10 ms), the next slot (20 ms), iNav serving
 /// the frame (10 ms).
 const TO_INAV: Duration = Duration::from_millis(40);
-/// The mock sends RC_CHANNELS every 20 ms.
-const TELEMETRY: Duration = Duration::from_millis(20);
+/// The mock sends RC_CHANNELS every 40 ms, as iNav does at its fastest.
+const TELEMETRY: Duration = Duration::from_millis(40);
 const ROLL: Duration = Duration::from_millis(1500);
 const CENTRE_US: u16 = 1500;
 /// Scheduling slack for a loaded 2-core test machine, on top of the spec'd bound.
@@ -480,7 +480,8 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
             _ => {}
         }
     }
-    assert!(attitude_in > 50, "{attitude_in} ATTITUDE recorded");
+    // At iNav's 25 Hz, over the 1.5 s or so the daemon ran.
+    assert!(attitude_in >= 25, "{attitude_in} ATTITUDE recorded");
     assert!(own_heartbeats >= 1);
 
     // The window log replays the flight exactly: every window, with the recorded

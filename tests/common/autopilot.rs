@@ -195,8 +195,9 @@ impl MockAutopilot {
                 }
             }));
         }
-        // Telemetry: ATTITUDE at 50 Hz, RC_CHANNELS at 50 Hz, HEARTBEAT at 5 Hz, SYS_STATUS
-        // every 120 ms.
+        // Telemetry as iNav sends it with the committed set-up (telemetry/mavlink.c at
+        // rates 50 and 10): ATTITUDE and RC_CHANNELS every 40 ms, SYS_STATUS every
+        // 120 ms, HEARTBEAT once a second.
         {
             let (master, stop, controls, rc_sent) = (
                 master.clone(),
@@ -223,7 +224,7 @@ impl MockAutopilot {
                         out.extend(encode(seq, &rc_channels(boot_ms, switch_us, roll_us)));
                         seq = seq.wrapping_add(1);
                     }
-                    if tick.is_multiple_of(10) {
+                    if tick.is_multiple_of(25) {
                         out.extend(encode(
                             seq,
                             &heartbeat(
@@ -233,7 +234,7 @@ impl MockAutopilot {
                         ));
                         seq = seq.wrapping_add(1);
                     }
-                    if tick.is_multiple_of(6) && controls.send_sys_status.load(Ordering::Relaxed) {
+                    if tick.is_multiple_of(3) && controls.send_sys_status.load(Ordering::Relaxed) {
                         out.extend(encode(
                             seq,
                             &inav_mavlink::sys_status(
@@ -256,7 +257,7 @@ impl MockAutopilot {
                         });
                     }
                     tick += 1;
-                    std::thread::sleep(Duration::from_millis(20));
+                    std::thread::sleep(Duration::from_millis(40));
                 }
             }));
         }
