@@ -9,7 +9,12 @@
 //!
 //! A panic anywhere ends the daemon on purpose ([`install_panic_hook`]): the roll is
 //! released and the exit status is non-zero, so systemd restarts it too.
+//!
+//! Faults belong to one run of the daemon ([`Faults`], a handle passed to every task
+//! and thread like the shutdown signal): two runs in one process (the flights of
+//! `faithd sim`, parallel tests) never end each other.
 
+use std::cell::RefCell;
 use std::sync::Arc;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicI64, Ordering};
@@ -103,16 +108,87 @@ impl std::fmt::Display for Fault {
     }
 }
 
-static FAULT: OnceLock<tokio::sync::watch::Sender<Option<Fault>>> = OnceLock::new();
-
-fn fault_channel() -> &'static tokio::sync::watch::Sender<Option<Fault>> {
-    FAULT.get_or_init(|| tokio::sync::watch::channel(None).0)
+/// The faults of one run of the daemon: the first one reported ends that run, and no
+/// other. Cheap to clone; every clone is the same run's.
+#[derive(Clone, Debug)]
+pub struct Faults {
+    first: Arc<tokio::sync::watch::Sender<Option<Fault>>>,
 }
 
-/// Turns a panic in any thread into a daemon fault: the panic is printed as usual,
-/// then [`fault`] resolves and the daemon releases the roll and exits non-zero. A
-/// half-alive daemon (a dead link or pipeline behind a running process) is what
-/// systemd cannot see; a dead one it restarts.
+impl Default for Faults {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Faults {
+    pub fn new() -> Self {
+        Self {
+            first: Arc::new(tokio::sync::watch::channel(None).0),
+        }
+    }
+
+    /// Ends the run with a fault (the first one reported wins).
+    pub fn report(&self, why: Fault) {
+        self.first.send_if_modified(|f| {
+            if f.is_none() {
+                *f = Some(why);
+                true
+            } else {
+                false
+            }
+        });
+    }
+
+    /// The fault reported so far, if any.
+    pub fn reported(&self) -> Option<Fault> {
+        self.first.borrow().clone()
+    }
+
+    /// Resolves with the first fault reported.
+    pub async fn wait(&self) -> Fault {
+        let mut rx = self.first.subscribe();
+        loop {
+            if let Some(why) = rx.borrow_and_update().clone() {
+                return why;
+            }
+            if rx.changed().await.is_err() {
+                std::future::pending::<()>().await;
+            }
+        }
+    }
+
+    /// Makes this run the one a panic on the calling thread is reported to, until the
+    /// guard is dropped (threads the run starts, the runtime's workers, a simulated
+    /// flight's one thread).
+    pub fn enter(&self) -> FaultScope {
+        let previous = CURRENT.with(|c| c.replace(Some(self.clone())));
+        FaultScope { previous }
+    }
+}
+
+/// While alive, panics on this thread are the run's faults ([`Faults::enter`]).
+pub struct FaultScope {
+    previous: Option<Faults>,
+}
+
+impl Drop for FaultScope {
+    fn drop(&mut self) {
+        let previous = self.previous.take();
+        CURRENT.with(|c| *c.borrow_mut() = previous);
+    }
+}
+
+thread_local! {
+    /// The run a panic on this thread belongs to.
+    static CURRENT: RefCell<Option<Faults>> = const { RefCell::new(None) };
+}
+
+/// Turns a panic in any thread of a run into that run's fault: the panic is printed
+/// as usual, then the run's [`Faults::wait`] resolves and the daemon releases the
+/// roll and exits non-zero. A half-alive daemon (a dead link or pipeline behind a
+/// running process) is what systemd cannot see; a dead one it restarts. A panic on a
+/// thread of no run is only printed.
 pub fn install_panic_hook() {
     static ONCE: OnceLock<()> = OnceLock::new();
     ONCE.get_or_init(|| {
@@ -120,49 +196,27 @@ pub fn install_panic_hook() {
         std::panic::set_hook(Box::new(move |info| {
             // The fault first: printing a backtrace can take a good part of a second,
             // and the release must not wait for it.
-            let thread = std::thread::current()
-                .name()
-                .unwrap_or("unnamed thread")
-                .to_string();
-            let what = info
-                .payload()
-                .downcast_ref::<&str>()
-                .map(|s| s.to_string())
-                .or_else(|| info.payload().downcast_ref::<String>().cloned())
-                .unwrap_or_else(|| "panic".into());
-            let at = info
-                .location()
-                .map(|l| format!(" at {}:{}", l.file(), l.line()))
-                .unwrap_or_default();
-            report_fault(Fault::Crash(format!("panic in {thread}: {what}{at}")));
+            let run = CURRENT.try_with(|c| c.borrow().clone()).ok().flatten();
+            if let Some(faults) = run {
+                let thread = std::thread::current()
+                    .name()
+                    .unwrap_or("unnamed thread")
+                    .to_string();
+                let what = info
+                    .payload()
+                    .downcast_ref::<&str>()
+                    .map(|s| s.to_string())
+                    .or_else(|| info.payload().downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "panic".into());
+                let at = info
+                    .location()
+                    .map(|l| format!(" at {}:{}", l.file(), l.line()))
+                    .unwrap_or_default();
+                faults.report(Fault::Crash(format!("panic in {thread}: {what}{at}")));
+            }
             previous(info);
         }));
     });
-}
-
-/// Ends the daemon with a fault (the first one reported wins).
-pub fn report_fault(why: Fault) {
-    fault_channel().send_if_modified(|f| {
-        if f.is_none() {
-            *f = Some(why);
-            true
-        } else {
-            false
-        }
-    });
-}
-
-/// Resolves with the first fault reported.
-pub async fn fault() -> Fault {
-    let mut rx = fault_channel().subscribe();
-    loop {
-        if let Some(why) = rx.borrow_and_update().clone() {
-            return why;
-        }
-        if rx.changed().await.is_err() {
-            std::future::pending::<()>().await;
-        }
-    }
 }
 
 #[cfg(test)]
@@ -186,5 +240,34 @@ mod tests {
         // The link beats again: only the stream is stuck.
         link.last_us.store(later, Ordering::Release);
         assert_eq!(supervisor.stalled(later).map(|s| s.0), Some("MSP stream"));
+    }
+
+    #[test]
+    fn a_panic_is_the_fault_of_the_run_whose_thread_it_is_on() {
+        install_panic_hook();
+        let (a, b) = (Faults::new(), Faults::new());
+        let thread_of = |faults: Faults, panics: bool| {
+            std::thread::spawn(move || {
+                let _run = faults.enter();
+                if panics {
+                    panic!("injected");
+                }
+            })
+        };
+        assert!(thread_of(a.clone(), true).join().is_err());
+        assert!(thread_of(b.clone(), false).join().is_ok());
+        match a.reported() {
+            Some(Fault::Crash(why)) => assert!(why.contains("injected"), "{why}"),
+            other => panic!("run a: {other:?}"),
+        }
+        assert_eq!(b.reported(), None, "run b is not ended by run a's panic");
+        // The first fault wins; the scope ends with its guard.
+        a.report(Fault::Crash("second".into()));
+        assert!(matches!(a.reported(), Some(Fault::Crash(why)) if why.contains("injected")));
+        {
+            let _run = b.enter();
+        }
+        assert!(std::panic::catch_unwind(|| panic!("no run")).is_err());
+        assert_eq!(b.reported(), None);
     }
 }

@@ -156,3 +156,34 @@ fn measured_compute_flies_too() {
     assert!(o.rolled && !o.collided);
     assert!(o.pipeline.charged_us_p50 > 1.0, "{:?}", o.pipeline);
 }
+
+/// Two flights in one process, as `faithd sim` flies them: a fault of one (a panic on
+/// its thread, or a task reporting one) ends that flight and leaves the other alone.
+#[test]
+fn one_flights_fault_ends_that_flight_only() {
+    use faithd::supervise::{Fault, Faults};
+    let options = FlyOptions::default();
+    let faulty = Faults::new();
+    let line = FlightSpec {
+        camera: CameraKind::Line,
+        ..collision_course()
+    };
+    let (spec_a, spec_b) = (line.clone(), line);
+    let (a, b) = std::thread::scope(|s| {
+        let handle = faulty.clone();
+        let a = s.spawn(|| faithd::closed_loop::fly_with(&spec_a, &options, handle));
+        let b = s.spawn(|| fly(&spec_b, &options));
+        // Mid-flight for the first one (the daemon is up within milliseconds of
+        // simulated time, and the flight lasts seconds of it).
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        faulty.report(Fault::Crash("injected fault of flight A".into()));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    let err = a.expect_err("flight A ends on its fault");
+    assert!(
+        err.to_string().contains("injected fault of flight A"),
+        "{err}"
+    );
+    let b = b.expect("flight B flies on");
+    assert!(b.rolled && !b.collided, "flight B: {}", json(&b));
+}

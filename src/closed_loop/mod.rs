@@ -190,16 +190,31 @@ pub struct FlightOutcome {
 /// Flies one flight end to end in simulated time. Fails when the daemon ended on a
 /// fault (a panic in one of its tasks): that is a defect, never an outcome.
 pub fn fly(spec: &FlightSpec, options: &FlyOptions) -> std::io::Result<FlightOutcome> {
+    fly_with(spec, options, crate::supervise::Faults::new())
+}
+
+/// [`fly`], with the flight's faults in a handle of the caller's: a fault reported
+/// on it, or a panic on the flight's thread, ends this flight alone.
+pub fn fly_with(
+    spec: &FlightSpec,
+    options: &FlyOptions,
+    faults: crate::supervise::Faults,
+) -> std::io::Result<FlightOutcome> {
     // One thread and a paused clock that advances only when every task waits: the
     // flight's order of events is fixed by its inputs, never by the machine.
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_time()
         .start_paused(true)
         .build()?;
-    runtime.block_on(fly_simulated(spec, options))
+    let _run = faults.enter();
+    runtime.block_on(fly_simulated(spec, options, faults))
 }
 
-async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Result<FlightOutcome> {
+async fn fly_simulated(
+    spec: &FlightSpec,
+    options: &FlyOptions,
+    faults: crate::supervise::Faults,
+) -> std::io::Result<FlightOutcome> {
     let clock = DaemonClock::simulated(SIMULATED_START_UNIX_US);
     let shared = Arc::new(Shared::new(physics::initial_quad(spec).state()));
     let inav = autopilot::start(shared.clone(), clock);
@@ -235,6 +250,7 @@ async fn fly_simulated(spec: &FlightSpec, options: &FlyOptions) -> std::io::Resu
         observer: Some(Box::new(move |o| {
             let _ = obs_tx.send(o);
         })),
+        faults,
     };
     let start_us = clock.now_us() + (spec.lead_in_s * 1e6) as i64;
     let done = shared.clone();

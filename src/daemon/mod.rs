@@ -93,11 +93,18 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     let endpoint = config.mavlink.port();
     let msp_endpoint = config.command.msp_port();
     supervise::install_panic_hook();
-    let runtime = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .map_err(DaemonError::Runtime)?;
+    // This run's faults: a panic on a runtime worker (a task), on the camera or the
+    // pipeline thread, or a refusal of the camera, ends this run and releases the roll.
+    let faults = supervise::Faults::new();
+    let runtime = {
+        let faults = faults.clone();
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .on_thread_start(move || std::mem::forget(faults.enter()))
+            .build()
+            .map_err(DaemonError::Runtime)?
+    };
     let clock = DaemonClock::start();
     let camera = config.pipeline.camera;
     let source: SourceFn = match config.source.clone() {
@@ -120,6 +127,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
                 width_px: camera.width_px,
                 height_px: camera.height_px,
             };
+            let faults = faults.clone();
             Box::new(move |clock, batches| {
                 if let Err(e) = crate::source::caer::run(
                     &lib,
@@ -129,7 +137,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
                     batches,
                     Duration::from_secs(2),
                 ) {
-                    supervise::report_fault(supervise::Fault::Refused {
+                    faults.report(supervise::Fault::Refused {
                         key: e.key(),
                         reason: e.to_string(),
                     });
@@ -141,6 +149,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
         clock,
         execution: Execution::Threads { source },
         observer: None,
+        faults,
     };
     let ended = runtime.block_on(serve(
         config,
@@ -199,6 +208,9 @@ pub struct Hooks {
     pub clock: DaemonClock,
     pub execution: Execution,
     pub observer: Option<Observer>,
+    /// This run's faults: the first one reported ends the run (`serve` releases the
+    /// roll and returns it). The caller enters it on its own runtime's threads.
+    pub faults: supervise::Faults,
 }
 
 /// Called by the commander with every [`Observation`]: on the commander's own task,
@@ -237,6 +249,7 @@ pub async fn serve(
         clock,
         execution,
         observer,
+        faults,
     } = hooks;
     tracing::info!(
         version = env!("CARGO_PKG_VERSION"),
@@ -316,13 +329,21 @@ pub async fn serve(
     };
     let workers = match execution {
         Execution::Threads { source } => {
+            let source_faults = faults.clone();
             let source_thread = std::thread::Builder::new()
                 .name("faithd-source".into())
-                .spawn(move || source(clock, batch_tx))
+                .spawn(move || {
+                    let _run = source_faults.enter();
+                    source(clock, batch_tx)
+                })
                 .expect("spawn source thread");
+            let pipeline_faults = faults.clone();
             let pipeline_thread = std::thread::Builder::new()
                 .name("faithd-pipeline".into())
-                .spawn(move || cycle::run(pipeline_config, daemon_config, clock, cycle_io))
+                .spawn(move || {
+                    let _run = pipeline_faults.enter();
+                    cycle::run(pipeline_config, daemon_config, clock, cycle_io)
+                })
                 .expect("spawn pipeline thread");
             Workers::Threads([("pipeline", pipeline_thread), ("camera", source_thread)])
         }
@@ -361,6 +382,7 @@ pub async fn serve(
         status_rx.clone(),
         config.gate.pipeline_stale_us,
         supervisor,
+        faults.clone(),
     ));
     // The commander is a task of its own: a panic in it ends that task alone, and
     // the select below then releases the roll like any other fault.
@@ -400,7 +422,7 @@ pub async fn serve(
             tracing::info!("shutdown requested ({why})");
             Ended::Requested(why)
         }
-        fault = supervise::fault() => match fault {
+        fault = faults.wait() => match fault {
             supervise::Fault::Crash(why) => {
                 tracing::error!("{why}: releasing the roll and stopping (systemd restarts faithd)");
                 Ended::Fault(why)
@@ -764,6 +786,7 @@ async fn systemd_notifier(
     status_rx: watch::Receiver<PipelineStatus>,
     pipeline_stale_us: i64,
     supervisor: supervise::Supervisor,
+    faults: supervise::Faults,
 ) {
     loop {
         let up = vehicle_rx.borrow().link_up && status_rx.borrow().last_cycle_us.is_some();
@@ -773,7 +796,7 @@ async fn systemd_notifier(
         tokio::select! {
             biased;
             changed = vehicle_rx.changed() => if changed.is_err() {
-                supervise::report_fault(supervise::Fault::Crash(
+                faults.report(supervise::Fault::Crash(
                     "the autopilot link task ended before READY".into(),
                 ));
                 return;
