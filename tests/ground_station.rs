@@ -14,7 +14,7 @@
 //! Needs python3 with pymavlink (`.ci/run` installs it). Without it the test is
 //! skipped with a message, unless `CI` is set: there it fails.
 //! `cargo test --test ground_station -- --nocapture` prints what the ground station
-//! showed (the README's capture).
+//! showed (the capture in docs/daemon.md).
 
 mod common;
 

@@ -5,7 +5,7 @@
 //! MSP (MSP_RC, MSP2_INAV_STATUS) on a port of its own, never on what faithd sent.
 //!
 //! `cargo test --release --test inav_sitl -- --nocapture` prints the measured
-//! figures (application delay, in-effect share, release delay) the README quotes.
+//! figures (application delay, in-effect share, release delay) docs/inav.md quotes.
 
 mod common;
 

@@ -35,7 +35,7 @@ fn real_library() -> Option<String> {
         Ok(path) if !path.is_empty() => Some(path),
         _ => {
             skipped(
-                "LIBCAER_PATH is not set (a libcaer.so.3 built from iniVation's source: README, The live camera)",
+                "LIBCAER_PATH is not set (a libcaer.so.3 built from iniVation's source: docs/camera.md)",
             );
             None
         }

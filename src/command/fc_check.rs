@@ -2,7 +2,7 @@
 //!
 //! iNav decides on its own whether an MSP roll override is applied, when, and for
 //! how long it outlives faithd. Every fact below was read from iNav 9.1's source and
-//! measured on its SITL build (README, "Setting up iNav"); a set-up that is known to
+//! measured on its SITL build (docs/inav.md); a set-up that is known to
 //! fail is refused with the iNav CLI line that fixes it, before the gate can open.
 //! `read` talks MSP; `evaluate` is pure and unit-tested.
 

@@ -119,7 +119,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
             let lib = libcaer_sys::Libcaer::load(path).map_err(|e| DaemonError::Config {
                 key: "source.libcaer_path",
                 reason: format!(
-                    "{e}; install iniVation's libcaer 3 (it is not in Debian: see the README, The live camera) or name its file here"
+                    "{e}; install iniVation's libcaer 3 (it is not in Debian: see docs/camera.md) or name its file here"
                 ),
             })?;
             tracing::info!(library = %lib.path, "libcaer loaded");

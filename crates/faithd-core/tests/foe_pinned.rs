@@ -19,7 +19,7 @@
 //! side; the directions-only and paper digests kept every bit, and `bench foe` seeds
 //! 1 to 3 kept their figures to the third decimal. The `Debug` form of an f64 is its
 //! shortest round-trip decimal, so equal strings mean equal bits. Keeping the
-//! estimates identical keeps every published accuracy figure (README,
+//! estimates identical keeps every published accuracy figure (docs/performance.md,
 //! docs/tuning.md) valid.
 //!
 //! `PRINT_PINNED=1 cargo test -p faithd-core --test foe_pinned -- --nocapture` prints

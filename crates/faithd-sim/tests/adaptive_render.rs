@@ -305,7 +305,7 @@ fn adaptive_rendering_gives_the_events_of_rendering_at_1_khz() {
     assert!(r_time > 0.95 && r_space > 0.9, "{r_time} {r_space}");
 }
 
-/// The figure for the README: the mean render interval on the whole approach.
+/// The figure for docs/simulation.md: the mean render interval on the whole approach.
 #[test]
 fn adaptive_rendering_on_the_approach_to_a_pole() {
     let scene = SceneKind::Arena.build(1);

@@ -26,7 +26,7 @@
 //! - Speeds: the half-planes use only the flow's directions, and the plateau leans to
 //!   the side with fewer edges. `speed_fit` then places the FOE within a small grid
 //!   around the plateau centroid by how well one time to contact per image patch
-//!   explains the normal-flow speeds there. The README's `faithd bench foe` table
+//!   explains the normal-flow speeds there. The `faithd bench foe` table of docs/performance.md
 //!   gives what each of these steps is worth on the simulator.
 
 use rand::{RngExt, SeedableRng};
