@@ -1,20 +1,17 @@
-//! faithd, the daemon: the adapters around the pure core (`faithd-core`) that connect
-//! it to a drone. Events come from the camera, attitude and the pilot's switch from
-//! iNav over MAVLink; decisions go back to iNav as timed roll overrides, only while
-//! the safety gate is open. Modules from the outside in (docs/design.md):
+//! faithd as one crate for the command line and the integration tests: the flight
+//! daemon (`faithd-daemon`) and, with the `sim` feature, the lab (`faithd-lab`), under
+//! the paths they have always had. The flight build (`--no-default-features`) holds
+//! the daemon alone.
 
-pub mod clock; // the daemon's one monotonic clock, in microseconds
-pub mod config; // faithd.toml: typed settings, checked before anything opens
-pub mod source; // events: the DVS240 over libcaer and its clock, or the bench's sim
-pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
-pub mod cycle; // the pipeline thread: a window every period, load shedding
-pub mod command; // the roll sent to iNav (MSP RC override) and read back
-pub mod record; // the flight's events, MAVLink and windows on disk, within a budget
-pub mod supervise; // heartbeats of every task for systemd's watchdog; panics
-pub mod daemon; // `faithd run`: wires the above together, the commander, shutdown
-pub mod replay; // a recorded flight through the same pipeline, off line
-pub mod logging; // journal-friendly logs that never block the cycle
+pub use faithd_daemon::*;
+
 #[cfg(feature = "sim")]
-pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav
-#[cfg(feature = "sim")]
-pub mod video; // a flight as a video: every window's picture, decision, gate and roll
+pub use faithd_lab::{closed_loop, video};
+
+/// The pipeline's driver (`faithd-daemon`), and with the lab its charged compute and
+/// the `bench pipeline` runner.
+pub mod cycle {
+    pub use faithd_daemon::cycle::*;
+    #[cfg(feature = "sim")]
+    pub use faithd_lab::cycle::{bench, compute};
+}

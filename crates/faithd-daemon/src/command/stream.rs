@@ -1,0 +1,678 @@
+//! The roll stream: MSP_SET_RAW_RC to iNav for as long as its MSP port is open.
+//!
+//! iNav's MSP RC override has a failsafe of its own: it applies frames only after
+//! 200 ms + failsafe_recovery_delay of them, and keeps the last value for 400 ms +
+//! failsafe_delay after they stop (rx/msp.c, rx/msp_override.c; 0.70-0.74 s and
+//! 0.89-0.94 s measured on SITL with the defaults). A sender that is silent between
+//! rolls loses half of every 1.5 s roll that way. So faithd streams from the moment
+//! the port is open and checked: iNav's centre while idle, the roll during a
+//! manoeuvre. In AUTO iNav therefore holds roll at centre between manoeuvres; in
+//! MANUAL its override mode is off and the pilot's stick is all it uses.
+//!
+//! The port carries what a flight controller can serve: one command per 20 ms slot
+//! ([`super::msp_port`]), each answered before the next is written. The roll frame
+//! goes first whenever the held value changed and at least every
+//! `manoeuvre.resend_period_us`; the other slots ask MSP_RC (the roll iNav really
+//! uses, for the commander's check) and MSP2_INAV_STATUS (armed, failsafe, ANGLE, the
+//! override mode) in turn, and every 400 ms one request of the set-up check again: a
+//! set-up changed in flight (from a configurator on another port) stops the stream
+//! and closes the gate with what changed.
+//!
+//! Whatever the commander does, the stream holds a roll no longer than a roll lasts
+//! plus a margin ([`StreamSettings::hold_bound`]), then reverts to the centre.
+
+use std::time::Duration;
+
+use tokio::sync::{mpsc, oneshot, watch};
+
+use super::fc_check::{self, Expectations, FcSettings, RouteFacts};
+use super::msp;
+use super::msp_port::{self, MspError, MspPort};
+use crate::clock::DaemonClock;
+use crate::link::endpoint::Endpoint;
+use crate::supervise::Heartbeat;
+use faithd_core::safety::commander::RollReport;
+use faithd_core::safety::gate::FcStatus;
+use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
+
+/// The stream's knobs, from the config.
+#[derive(Clone, Copy, Debug)]
+pub struct StreamSettings {
+    /// The roll frame goes out at least this often.
+    pub roll_period: Duration,
+    /// Replies (set-up reads, MSP_RC) must come within this.
+    pub reply_timeout: Duration,
+    /// Wait beyond iNav's recovery delay before the gate may open.
+    pub warmup_margin_us: i64,
+    pub reconnect_min: Duration,
+    pub reconnect_max: Duration,
+    /// How long a refused set-up waits before it is read again.
+    pub recheck: Duration,
+    pub expect: Expectations,
+    /// iNav's calibration of roll: values are aimed through it.
+    pub roll_rxrange: RxRange,
+    /// A value other than the centre held longer than this is dropped by the stream.
+    pub hold_bound: Duration,
+}
+
+/// What the stream publishes for the gate and the commander.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StreamStatus {
+    pub setup_refused: bool,
+    /// The set-up changed in flight: the stream stopped until it is checked again.
+    pub setup_changed: bool,
+    /// From this daemon time on iNav applies the stream; `None` while not streaming.
+    pub ready_at_us: Option<i64>,
+    pub facts: Option<RouteFacts>,
+    pub last_report: Option<RollReport>,
+    /// iNav's own state (armed, failsafe, ANGLE, override mode).
+    pub fc: Option<FcStatus>,
+}
+
+/// Asks the stream to end with the stick centre: `repeats` frames one period apart;
+/// the answer is how many went out, or why none could.
+pub struct StopRequest {
+    pub repeats: u32,
+    pub done: oneshot::Sender<Result<u32, String>>,
+}
+
+/// The commander's side of the stream.
+pub struct StreamHandle {
+    /// The roll value iNav should use (the centre when idle).
+    pub held: watch::Sender<u16>,
+    pub status: watch::Receiver<StreamStatus>,
+    pub stop: mpsc::Sender<StopRequest>,
+}
+
+/// Starts the stream task.
+pub fn spawn(
+    endpoint: Endpoint,
+    settings: StreamSettings,
+    clock: DaemonClock,
+    heartbeat: Heartbeat,
+) -> StreamHandle {
+    let (held, held_rx) = watch::channel(NEUTRAL_US);
+    let (status_tx, status) = watch::channel(StreamStatus::default());
+    let (stop, stop_rx) = mpsc::channel(1);
+    let channels = Channels {
+        held: held_rx,
+        status: status_tx,
+        stop: stop_rx,
+        heartbeat,
+    };
+    tokio::spawn(run(endpoint, settings, clock, channels));
+    StreamHandle { held, status, stop }
+}
+
+/// The stream task's ends of its channels, and its heartbeat.
+struct Channels {
+    held: watch::Receiver<u16>,
+    status: watch::Sender<StreamStatus>,
+    stop: mpsc::Receiver<StopRequest>,
+    heartbeat: Heartbeat,
+}
+
+/// Writes the release from outside the stream, on a port opened afresh: for when the
+/// stream task is gone (it panicked) and the daemon is stopping.
+pub async fn release_directly(
+    endpoint: &Endpoint,
+    facts: RouteFacts,
+    roll_rxrange: RxRange,
+    repeats: u32,
+    period: Duration,
+) -> Result<u32, String> {
+    let transport = endpoint
+        .open()
+        .await
+        .map_err(|e| format!("cannot open {endpoint}: {e}"))?;
+    let mut port = MspPort::new(transport);
+    let centre = raw_rc_frame(facts.roll_frame_index, NEUTRAL_US, roll_rxrange);
+    release(&mut port, &centre, repeats, period).await
+}
+
+/// MSP_SET_RAW_RC: the four flight channels at the centre, and in the slot of the
+/// radio channel that feeds iNav's roll the value that iNav, after scaling it by
+/// `rxrange`, uses as `roll_us`. iNav needs all four valid to trust the frame, and
+/// takes from it only the channels in msp_override_channels (roll alone, as
+/// `faithd check-fc` verified).
+pub fn raw_rc_frame(roll_frame_index: usize, roll_us: u16, roll_rxrange: RxRange) -> Vec<u8> {
+    let mut channels = [NEUTRAL_US; 4];
+    channels[roll_frame_index.min(3)] = roll_rxrange.aim(roll_us).map_or(roll_us, |(sent, _)| sent);
+    msp::set_raw_rc(&channels)
+}
+
+async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, channels: Channels) {
+    let mut channels = channels;
+    let mut backoff = settings.reconnect_min;
+    loop {
+        channels.heartbeat.beat();
+        let opened = tokio::select! {
+            biased;
+            o = endpoint.open() => o,
+            Some(req) = channels.stop.recv() => {
+                let _ = req.done.send(Err("the MSP port is not open".into()));
+                return;
+            }
+        };
+        let wait = match opened {
+            Err(e) => {
+                tracing::warn!(%endpoint, "cannot open the MSP command port: {e}; retry in {} ms", backoff.as_millis());
+                backoff
+            }
+            Ok(transport) => {
+                backoff = settings.reconnect_min;
+                let mut port = MspPort::new(transport);
+                match check(&mut port, &settings).await {
+                    Err(why) => {
+                        tracing::warn!(%endpoint, "cannot read the flight controller's set-up: {why}");
+                        backoff
+                    }
+                    Ok(Err(summary)) => {
+                        channels.status.send_modify(|s| s.setup_refused = true);
+                        tracing::error!(%endpoint, "flight controller set-up refused, faithd will not command: {summary}");
+                        settings.recheck
+                    }
+                    Ok(Ok((fc, facts))) => {
+                        let why =
+                            serve(&mut port, &fc, facts, &settings, &clock, &mut channels).await;
+                        channels.status.send_modify(|s| {
+                            s.ready_at_us = None;
+                            s.last_report = None;
+                            s.fc = None;
+                        });
+                        match why {
+                            Ended::Stopped => return,
+                            Ended::SetupChanged(what) => {
+                                channels.status.send_modify(|s| s.setup_changed = true);
+                                tracing::error!(%endpoint, "the flight controller's set-up changed in flight ({what}): faithd stopped streaming and closes the gate until the set-up is checked again");
+                                Duration::ZERO
+                            }
+                            Ended::Failed(why) => {
+                                tracing::warn!(%endpoint, "MSP command port lost: {why}; reopening");
+                                backoff
+                            }
+                        }
+                    }
+                }
+            }
+        };
+        tokio::select! {
+            biased;
+            _ = channels.heartbeat.sleep(wait) => {}
+            Some(req) = channels.stop.recv() => {
+                let _ = req.done.send(Err("the MSP port is not open".into()));
+                return;
+            }
+        }
+        backoff = (backoff * 2).min(settings.reconnect_max);
+    }
+}
+
+/// Reads and judges the set-up; `Ok(Err(summary))` when it is refused.
+async fn check(
+    port: &mut MspPort,
+    settings: &StreamSettings,
+) -> Result<Result<(FcSettings, RouteFacts), String>, String> {
+    let fc = fc_check::read(port, settings.reply_timeout)
+        .await
+        .map_err(|e| e.to_string())?;
+    let report = fc_check::evaluate(&fc, &settings.expect);
+    Ok(match report.route {
+        Some(facts) => {
+            for item in &report.items {
+                tracing::info!("flight controller {}: {}", item.what, item.found);
+            }
+            Ok((fc, facts))
+        }
+        None => Err(report.summary()),
+    })
+}
+
+enum Ended {
+    Stopped,
+    SetupChanged(String),
+    Failed(String),
+}
+
+/// What the stream asks in the slots the roll frame leaves free.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Ask {
+    Rc,
+    Status,
+    Recheck(fc_check::Recheck),
+}
+
+/// MSP_RC and MSP2_INAV_STATUS in turn; every [`RECHECK_EVERY`] asks, the next part
+/// of the set-up check instead.
+struct Rotation {
+    n: usize,
+    recheck: usize,
+}
+
+/// Every 400 ms with the roll frame in every other slot: the whole set-up (three
+/// requests) is read again every 1.2 s.
+const RECHECK_EVERY: usize = 10;
+
+impl Rotation {
+    fn next(&mut self) -> Ask {
+        self.n += 1;
+        if self.n.is_multiple_of(RECHECK_EVERY) {
+            self.recheck += 1;
+            return Ask::Recheck(fc_check::RECHECKS[self.recheck % fc_check::RECHECKS.len()]);
+        }
+        if self.n.is_multiple_of(2) {
+            Ask::Rc
+        } else {
+            Ask::Status
+        }
+    }
+}
+
+/// The value streamed, and how long it has been other than the centre.
+struct Held {
+    wanted_us: u16,
+    raised_at: Option<tokio::time::Instant>,
+    /// The bound ran out: the stream sends the centre until the commander does too.
+    reverted: bool,
+}
+
+impl Held {
+    /// The commander asked for `wanted_us`.
+    fn set(&mut self, wanted_us: u16) {
+        if wanted_us == self.wanted_us {
+            return;
+        }
+        self.wanted_us = wanted_us;
+        self.reverted = false;
+        self.raised_at = (wanted_us != NEUTRAL_US).then(tokio::time::Instant::now);
+    }
+
+    /// The value to send now; reverts (once, with a journal line) past the bound.
+    fn value_us(&mut self, bound: Duration) -> u16 {
+        if let Some(raised_at) = self.raised_at
+            && !self.reverted
+            && raised_at.elapsed() > bound
+        {
+            self.reverted = true;
+            tracing::error!(
+                held_us = self.wanted_us,
+                bound_ms = bound.as_millis(),
+                "roll {} us held for longer than a roll lasts: the stream reverts to the centre on its own",
+                self.wanted_us
+            );
+        }
+        if self.reverted {
+            NEUTRAL_US
+        } else {
+            self.wanted_us
+        }
+    }
+}
+
+async fn serve(
+    port: &mut MspPort,
+    checked: &FcSettings,
+    facts: RouteFacts,
+    settings: &StreamSettings,
+    clock: &DaemonClock,
+    channels: &mut Channels,
+) -> Ended {
+    let Channels {
+        held,
+        status,
+        stop,
+        heartbeat,
+    } = channels;
+    let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, settings.roll_rxrange);
+    // Whatever was held before the port went away, the stream starts at the centre:
+    // that is the release a restarted or reconnected faithd owes the pilot.
+    held.mark_unchanged();
+    let mut wanted = Held {
+        wanted_us: NEUTRAL_US,
+        raised_at: None,
+        reverted: false,
+    };
+    let started_us = clock.now_us();
+    let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
+    status.send_modify(|s| {
+        s.setup_refused = false;
+        s.setup_changed = false;
+        s.facts = Some(facts);
+        s.ready_at_us = Some(ready_at_us);
+    });
+    tracing::info!(
+        warmup_ms = (ready_at_us - started_us) / 1000,
+        "MSP roll stream started at the stick centre"
+    );
+    let mut rotation = Rotation { n: 0, recheck: 0 };
+    let mut sent_us: Option<u16> = None;
+    let mut last_roll_frame = tokio::time::Instant::now();
+    let mut refusals = 0u64;
+    loop {
+        heartbeat.beat();
+        if held.has_changed().unwrap_or(false) {
+            wanted.set(*held.borrow_and_update());
+        }
+        let value_us = wanted.value_us(settings.hold_bound);
+        // Due when the value changed, or when the next slot comes a period after the
+        // last roll frame: the roll frame and the requests then take turns.
+        let roll_due =
+            sent_us != Some(value_us) || port.next_slot() >= last_roll_frame + settings.roll_period;
+        let ask = if roll_due {
+            None
+        } else {
+            Some(rotation.next())
+        };
+        // The slot comes first; a stop wins over it, and a new value takes the slot
+        // from a request (the roll frame is always first in line).
+        tokio::select! {
+            biased;
+            Some(req) = stop.recv() => {
+                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
+                let _ = req.done.send(sent);
+                return Ended::Stopped;
+            }
+            Ok(()) = held.changed(), if ask.is_some() => {
+                wanted.set(*held.borrow_and_update());
+                continue;
+            }
+            _ = tokio::time::sleep_until(port.next_slot()) => {}
+        }
+        let (command, bytes) = match ask {
+            None => (msp::MSP_SET_RAW_RC, frame(value_us)),
+            Some(Ask::Rc) => (msp_port::MSP_RC, msp::encode_request(msp_port::MSP_RC, &[])),
+            Some(Ask::Status) => (
+                msp_port::MSP2_INAV_STATUS,
+                msp::encode_request(msp_port::MSP2_INAV_STATUS, &[]),
+            ),
+            Some(Ask::Recheck(r)) => (r.command(), r.request()),
+        };
+        let slot_at = match port.send(&bytes).await {
+            Ok(at) => at,
+            Err(e) => return Ended::Failed(format!("write failed: {e}")),
+        };
+        if ask.is_none() {
+            sent_us = Some(value_us);
+            last_roll_frame = slot_at;
+        }
+        let reply = tokio::select! {
+            biased;
+            Some(req) = stop.recv() => {
+                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
+                let _ = req.done.send(sent);
+                return Ended::Stopped;
+            }
+            reply = port.reply(command, settings.reply_timeout) => reply,
+        };
+        let payload = match reply {
+            Ok(payload) => payload,
+            Err(MspError::Refused { command }) => {
+                refusals += 1;
+                if refusals.is_power_of_two() {
+                    tracing::error!(
+                        command,
+                        refusals,
+                        "the flight controller refused an MSP command"
+                    );
+                }
+                continue;
+            }
+            Err(e) => return Ended::Failed(e.to_string()),
+        };
+        match ask {
+            None => {}
+            Some(Ask::Rc) => {
+                if let Some(roll_us) = msp_port::rc_values(&payload).next() {
+                    let report = RollReport {
+                        t_us: clock.now_us(),
+                        roll_us,
+                    };
+                    status.send_modify(|s| s.last_report = Some(report));
+                }
+            }
+            Some(Ask::Status) => match facts.status_bits.decode(&payload) {
+                Some(bits) => publish_fc_status(
+                    status,
+                    FcStatus {
+                        t_us: clock.now_us(),
+                        armed: bits.armed,
+                        failsafe: bits.failsafe,
+                        override_on: bits.override_on,
+                        angle: bits.angle,
+                    },
+                ),
+                None => tracing::warn!(
+                    bytes = payload.len(),
+                    "MSP2_INAV_STATUS reply too short; ignored"
+                ),
+            },
+            Some(Ask::Recheck(r)) => {
+                if let Some(what) = r.changed(checked, &payload) {
+                    return Ended::SetupChanged(what);
+                }
+            }
+        }
+    }
+}
+
+/// Hands iNav's latest status to the gate, saying in the journal when it changed.
+fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: FcStatus) {
+    let flags = |f: &FcStatus| (f.armed, f.failsafe, f.override_on, f.angle);
+    status.send_modify(|s| {
+        if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
+            tracing::info!(
+                armed = fc.armed,
+                failsafe = fc.failsafe,
+                override_on = fc.override_on,
+                angle = fc.angle,
+                "flight controller status"
+            );
+        }
+        s.fc = Some(fc);
+    });
+}
+
+/// Writes the centre `repeats` times, one period apart, each in its slot and
+/// acknowledged (or given a period to be).
+async fn release(
+    port: &mut MspPort,
+    centre: &[u8],
+    repeats: u32,
+    period: Duration,
+) -> Result<u32, String> {
+    for n in 0..repeats.max(1) {
+        if n > 0 {
+            tokio::time::sleep(
+                period.saturating_sub(Duration::from_micros(msp_port::MSP_SLOT_US as u64)),
+            )
+            .await;
+        }
+        port.send(centre)
+            .await
+            .map_err(|e| format!("{n} of {repeats} written, then: {e}"))?;
+        let _ = port.reply(msp::MSP_SET_RAW_RC, period).await;
+    }
+    Ok(repeats.max(1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_carries_the_roll_in_the_mapped_slot_and_the_centre_elsewhere() {
+        let mut out = Vec::new();
+        msp::Decoder::default().push(&raw_rc_frame(1, 1800, RxRange::DEFAULT), &mut out);
+        let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
+        assert_eq!(values, vec![1500, 1800, 1500, 1500]);
+        assert_eq!(out[0].command, msp::MSP_SET_RAW_RC);
+    }
+
+    #[test]
+    fn frame_aims_the_roll_through_rxrange() {
+        let mut out = Vec::new();
+        let range = RxRange::new(988, 2012).unwrap();
+        msp::Decoder::default().push(&raw_rc_frame(0, 1800, range), &mut out);
+        let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
+        assert_eq!(range.scale(values[0]), 1800);
+    }
+}
+
+/// The stream against faithd's model of iNav on a board, over a simulated UART, in
+/// simulated time: what iNav uses, millisecond by millisecond.
+#[cfg(test)]
+mod on_the_board {
+    use std::sync::{Arc, Mutex};
+
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    use super::*;
+    use crate::link::endpoint::{Address, InProcessPort};
+    use faithd_inav::msp::{InavMsp, Pilot, PortLog, Setup};
+
+    /// What iNav used on roll, by daemon time, and the port's log.
+    #[derive(Default)]
+    struct Seen {
+        roll: Vec<(i64, u16)>,
+        port: PortLog,
+    }
+
+    /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
+    fn inav(clock: DaemonClock) -> (Endpoint, Arc<Mutex<Seen>>) {
+        let (tx, mut sessions) = mpsc::unbounded_channel();
+        let port = InProcessPort::new("inav-msp", move || {
+            let (faithd, device) = tokio::io::duplex(16 * 1024);
+            tx.send(device)
+                .map_err(|_| std::io::Error::other("iNav has stopped"))?;
+            Ok(Box::pin(faithd))
+        });
+        let seen = Arc::new(Mutex::new(Seen::default()));
+        let out = seen.clone();
+        tokio::spawn(async move {
+            let mut fc = InavMsp::new(Setup::default(), clock.now_us());
+            fc.set_pilot(Pilot::flying([
+                1440, 1500, 1500, 1400, 1900, 1900, 1000, 1000,
+            ]));
+            let device = sessions.recv().await.expect("faithd opens the port");
+            let (mut rx, mut tx) = tokio::io::split(device);
+            let mut tick = tokio::time::interval(Duration::from_millis(1));
+            let mut buf = [0u8; 512];
+            loop {
+                tokio::select! {
+                    biased;
+                    _ = tick.tick() => {
+                        fc.advance(clock.now_us());
+                        let replies = fc.take_output();
+                        if !replies.is_empty() && tx.write_all(&replies).await.is_err() {
+                            return;
+                        }
+                        let mut seen = out.lock().unwrap();
+                        seen.roll.push((clock.now_us(), fc.roll_in_use()));
+                        seen.port = fc.log.clone();
+                    }
+                    got = rx.read(&mut buf) => match got {
+                        Ok(0) | Err(_) => return,
+                        Ok(n) => fc.receive(&buf[..n], clock.now_us()),
+                    },
+                }
+            }
+        });
+        (Endpoint::new(Address::InProcess(port), 115_200), seen)
+    }
+
+    fn settings() -> StreamSettings {
+        let config = crate::config::FaithdConfig::default();
+        StreamSettings {
+            roll_period: Duration::from_millis(40),
+            reply_timeout: Duration::from_millis(500),
+            warmup_margin_us: 100_000,
+            reconnect_min: Duration::from_millis(100),
+            reconnect_max: Duration::from_secs(1),
+            recheck: Duration::from_secs(5),
+            expect: Expectations::new(&config.gate, &config.command, 1),
+            roll_rxrange: RxRange::DEFAULT,
+            hold_bound: Duration::from_millis(1750),
+        }
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_roll_held_past_its_bound_is_dropped_by_the_stream_itself() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        tokio::time::sleep(Duration::from_secs(2)).await;
+        // A commander that sets a roll and never takes it back (stuck, or wrong).
+        let raised_us = clock.now_us();
+        stream.held.send_replace(1800);
+        tokio::time::sleep(Duration::from_secs(4)).await;
+        let seen = seen.lock().unwrap();
+        let rolled_at = seen
+            .roll
+            .iter()
+            .find(|(t, v)| *t >= raised_us && *v == 1800)
+            .map(|(t, _)| *t)
+            .expect("iNav used the roll");
+        let back_at = seen
+            .roll
+            .iter()
+            .find(|(t, v)| *t > rolled_at && *v != 1800)
+            .map(|(t, _)| *t)
+            .expect("the stream gave the roll back");
+        let held_us = back_at - raised_us;
+        assert!(
+            (1_750_000..=1_750_000 + 80_000).contains(&held_us),
+            "the roll held {held_us} us against a bound of 1.75 s"
+        );
+        assert!(
+            seen.roll
+                .iter()
+                .filter(|(t, _)| *t >= back_at)
+                .all(|(_, v)| *v == 1500),
+            "the centre, not the pilot's stick nor the roll, after the bound"
+        );
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn the_stream_fits_the_boards_serial_task_and_loses_nothing() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        // Rolls and releases in quick succession: every change is a roll frame first.
+        for k in 0..40u64 {
+            tokio::time::sleep(Duration::from_millis(100 + 7 * k)).await;
+            stream
+                .held
+                .send_replace(if k % 2 == 0 { 1800 } else { 1500 });
+        }
+        tokio::time::sleep(Duration::from_secs(1)).await;
+        let seen = seen.lock().unwrap();
+        let port = &seen.port;
+        assert_eq!(port.bytes_lost, 0);
+        let arrived: Vec<i64> = port.arrived.iter().map(|(t, _)| *t).collect();
+        let span_us = arrived.last().unwrap() - arrived[0];
+        let mean_per_s = (arrived.len() - 1) as f64 * 1e6 / span_us as f64;
+        assert!(mean_per_s <= 50.0, "{mean_per_s:.2} commands a second");
+        for (i, t0) in arrived.iter().enumerate() {
+            // A slot every 20 ms; a frame's time on the wire moves its arrival by a
+            // fraction of a millisecond, so one second can hold 51 arrivals.
+            let in_second = arrived[i..]
+                .iter()
+                .take_while(|t| **t < t0 + 1_000_000)
+                .count();
+            assert!(
+                in_second <= 51,
+                "{in_second} commands in the second from {t0}"
+            );
+            let served = port.served.iter().filter(|(t, _)| t <= t0).count();
+            assert!(
+                i + 1 - served <= 1,
+                "{} requests waiting at {t0}",
+                i + 1 - served
+            );
+        }
+        // Each change reached iNav within a slot, its serial task and the wire.
+        assert!(arrived.len() > 400, "{}", arrived.len());
+    }
+}

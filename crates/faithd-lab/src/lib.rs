@@ -1,0 +1,9 @@
+//! faithd's lab: the flight daemon (`faithd-daemon`) flying a simulated quadrotor
+//! against faithd's model of iNav (`faithd-inav`) in simulated time, with the DVS
+//! simulator (`faithd-sim`) as its camera; the pipeline's compute charged as the
+//! target board would need it; flights as videos. Never in the flight build: the
+//! binary links it only with the `sim` feature.
+
+pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav
+pub mod cycle; // the pipeline in simulated time, its compute charged as on the board
+pub mod video; // a flight as a video: every window's picture, decision, gate and roll

@@ -1,0 +1,106 @@
+//! Interop: pymavlink, an independent MAVLink implementation, plays iNav's telemetry
+//! over UDP (tests/py/pymavlink_autopilot.py); the roll goes to the MSP model of
+//! iNav on a pseudo-terminal. faithd must announce itself, roll on pymavlink's
+//! telemetry, send no RC_CHANNELS_OVERRIDE, and believe only the autopilot's own
+//! component.
+//!
+//! Needs python3 with pymavlink (`.ci/run` installs it); fails, not skips, without.
+
+use crate::common;
+
+use std::process::Command;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::time::Duration;
+
+use common::autopilot::Controls;
+use common::daemon::Daemon;
+use common::msp::{MspMock, is_roll};
+
+#[derive(serde::Deserialize)]
+struct Seen {
+    companion_heartbeats: u32,
+    overrides: u32,
+}
+
+/// pymavlink on a free UDP port for `seconds`, with `args`; faithd started against
+/// it and the MSP model; returns what pymavlink saw and faithd's journal.
+fn fly(seconds: &str, args: &[&str], msp: &MspMock) -> (Seen, String) {
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let script = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/py/pymavlink_autopilot.py"
+    );
+    let peer = Command::new("python3")
+        .arg(script)
+        .arg(port.to_string())
+        .arg(seconds)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 is needed for the pymavlink interop test");
+    std::thread::sleep(Duration::from_millis(300));
+    let mut daemon = Daemon::start(&format!("udpout:127.0.0.1:{port}"), &msp.command_toml());
+    let out = peer.wait_with_output().unwrap();
+    assert!(
+        out.status.success(),
+        "pymavlink peer failed (is pymavlink installed? `python3 -m pip install pymavlink`):\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = daemon.log();
+    assert!(daemon.stop().success(), "{log}");
+    (serde_json::from_slice(&out.stdout).unwrap(), log)
+}
+
+#[test]
+fn pymavlink_telemetry_drives_a_roll_and_sees_faithds_heartbeat() {
+    let msp = MspMock::start(Arc::new(Controls::default()));
+    let (seen, log) = fly("4.5", &[], &msp);
+    assert!(
+        seen.companion_heartbeats >= 2,
+        "faithd's HEARTBEAT not seen"
+    );
+    assert!(
+        msp.first_roll().is_some(),
+        "iNav (model) never used a roll; journal:\n{log}"
+    );
+    assert_eq!(
+        seen.overrides, 0,
+        "RC_CHANNELS_OVERRIDE is not faithd's route"
+    );
+}
+
+#[test]
+fn another_component_of_the_autopilots_system_cannot_open_the_gate() {
+    // The flight controller's switch is in MANUAL; a gimbal (component 154 of the same
+    // system) sends RC_CHANNELS with AUTO and an armed HEARTBEAT on the same link.
+    let controls = Arc::new(Controls::default());
+    controls.switch_us.store(1000, Ordering::Relaxed);
+    let msp = MspMock::start(controls);
+    let (seen, log) = fly("4.5", &["1000", "--impostor"], &msp);
+    assert!(seen.companion_heartbeats >= 2, "{log}");
+    assert!(
+        log.contains("decision: roll"),
+        "the pipeline wanted to roll: {log}"
+    );
+    assert!(!log.contains("safety gate open"), "{log}");
+    assert!(!log.contains("manoeuvre started"), "{log}");
+    assert!(
+        log.contains("MAVLink frames from a sender other than the autopilot ignored"),
+        "{log}"
+    );
+    assert!(log.contains("component_id=154"), "{log}");
+    let rolls = msp
+        .frames
+        .lock()
+        .unwrap()
+        .iter()
+        .filter(|(_, ch)| is_roll(ch[0]))
+        .count();
+    assert_eq!(rolls, 0);
+}
