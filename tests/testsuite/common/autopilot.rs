@@ -195,9 +195,12 @@ impl MockAutopilot {
                 }
             }));
         }
-        // Telemetry as iNav sends it with the committed set-up (telemetry/mavlink.c at
-        // rates 50 and 10): ATTITUDE and RC_CHANNELS every 40 ms, SYS_STATUS every
-        // 120 ms, HEARTBEAT once a second.
+        // Telemetry: ATTITUDE and RC_CHANNELS every 20 ms, twice iNav's fastest (40 ms,
+        // telemetry/mavlink.c): on a loaded two-core test machine a thread can be
+        // late by tens of milliseconds, and at iNav's own rate that alone would make
+        // ATTITUDE stale (100 ms) in a test about something else. The closed loop's
+        // simulated iNav and the SITL tests run at iNav's 40 ms. SYS_STATUS every
+        // 120 ms and HEARTBEAT once a second, as iNav sends them.
         {
             let (master, stop, controls, rc_sent) = (
                 master.clone(),
@@ -224,7 +227,7 @@ impl MockAutopilot {
                         out.extend(encode(seq, &rc_channels(boot_ms, switch_us, roll_us)));
                         seq = seq.wrapping_add(1);
                     }
-                    if tick.is_multiple_of(25) {
+                    if tick.is_multiple_of(50) {
                         out.extend(encode(
                             seq,
                             &heartbeat(
@@ -234,7 +237,7 @@ impl MockAutopilot {
                         ));
                         seq = seq.wrapping_add(1);
                     }
-                    if tick.is_multiple_of(3) && controls.send_sys_status.load(Ordering::Relaxed) {
+                    if tick.is_multiple_of(6) && controls.send_sys_status.load(Ordering::Relaxed) {
                         out.extend(encode(
                             seq,
                             &inav_mavlink::sys_status(
@@ -257,7 +260,12 @@ impl MockAutopilot {
                         });
                     }
                     tick += 1;
-                    std::thread::sleep(Duration::from_millis(40));
+                    // On a fixed schedule, not a fixed pause: a late tick does not
+                    // delay the ones after it.
+                    let next = start + Duration::from_millis(20) * tick as u32;
+                    if let Some(wait) = next.checked_duration_since(Instant::now()) {
+                        std::thread::sleep(wait);
+                    }
                 }
             }));
         }

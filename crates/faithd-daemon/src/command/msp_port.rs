@@ -55,6 +55,8 @@ pub struct MspPort {
     frames: std::collections::VecDeque<Frame>,
     /// The earliest time the next command may be written.
     next_slot: tokio::time::Instant,
+    /// The command written whose reply has not been read yet.
+    pending: Option<u16>,
 }
 
 impl MspPort {
@@ -66,6 +68,7 @@ impl MspPort {
             decoder: Decoder::default(),
             frames: Default::default(),
             next_slot: tokio::time::Instant::now(),
+            pending: None,
         }
     }
 
@@ -83,9 +86,16 @@ impl MspPort {
     /// faithd. A write stuck for [`crate::link::endpoint::WRITE_TIMEOUT`] fails.
     /// Returns the time the slot began.
     pub async fn send(&mut self, frame: &[u8]) -> std::io::Result<tokio::time::Instant> {
+        // One request outstanding: a reply not read yet (a stop came while it was
+        // awaited) is given one more slot before the next command goes anyway.
+        if let Some(command) = self.pending {
+            let slot = Duration::from_micros(MSP_SLOT_US as u64);
+            let _ = self.reply(command, slot).await;
+        }
         tokio::time::sleep_until(self.next_slot).await;
         let at = tokio::time::Instant::now();
         self.next_slot = at + Duration::from_micros(MSP_SLOT_US as u64);
+        self.pending = frame_command(frame);
         crate::link::endpoint::write_bounded(&mut self.tx, frame).await?;
         Ok(at)
     }
@@ -111,6 +121,18 @@ impl MspPort {
     /// Waits for the reply to `command`, skipping replies to other commands (a late
     /// reply to an earlier request). Replies iNav refused (`!`) are an error.
     pub async fn reply(&mut self, command: u16, timeout: Duration) -> Result<Vec<u8>, MspError> {
+        let got = self.wait_for_reply(command, timeout).await;
+        // Answered, refused or given up on: the next command does not wait for it
+        // again. (A wait cancelled half-way leaves it pending.)
+        self.pending = None;
+        got
+    }
+
+    async fn wait_for_reply(
+        &mut self,
+        command: u16,
+        timeout: Duration,
+    ) -> Result<Vec<u8>, MspError> {
         let deadline = tokio::time::Instant::now() + timeout;
         loop {
             let frame = tokio::time::timeout_at(deadline, self.next_frame())
@@ -173,6 +195,12 @@ impl MspPort {
         let value = self.request(MSP2_COMMON_SETTING, &payload, timeout).await?;
         Ok(le_unsigned(&value))
     }
+}
+
+/// The command of an MSP v2 request frame (`None` for raw text: iNav's CLI).
+fn frame_command(frame: &[u8]) -> Option<u16> {
+    (frame.len() >= 9 && frame.starts_with(b"$X<"))
+        .then(|| u16::from_le_bytes([frame[4], frame[5]]))
 }
 
 /// Little-endian unsigned value of up to four bytes.
