@@ -2,7 +2,6 @@
 //! read in mavutil, and a log written the way ground stations write it reads in faithd.
 //! Needs python3 with pymavlink (`.ci/run` installs it).
 
-
 use std::process::Command;
 
 use faithd_formats::tlog::{TlogReader, TlogWriter};

@@ -14,12 +14,12 @@ use mavlink::dialects::common::*;
 use tokio::io::{AsyncReadExt, AsyncWriteExt, DuplexStream, ReadHalf, WriteHalf};
 use tokio::sync::mpsc;
 
-use faithd_inav::mavlink::{self as inav_mavlink, encode};
-use faithd_inav::msp::{InavMsp, Pilot, Setup};
 use super::physics::Shared;
 use super::uart;
 use faithd_daemon::clock::DaemonClock;
 use faithd_daemon::link::endpoint::InProcessPort;
+use faithd_inav::mavlink::{self as inav_mavlink, encode};
+use faithd_inav::msp::{InavMsp, Pilot, Setup};
 
 /// The autopilot's boot clock runs on its own origin, as a real one does.
 const BOOT_OFFSET_MS: i64 = 73_000;

@@ -11,10 +11,10 @@ use serde::Serialize;
 use super::FlightSpec;
 use super::camera::FlightCamera;
 use super::physics::{STEP_US, initial_quad};
-use faithd_daemon::clock::WallStageClock;
-use faithd_daemon::cycle::Work;
 use crate::cycle::compute::{self, ComputeModel, Stage, TERMS};
 use faithd_core::pipeline::{Pipeline, PipelineConfig, StageTimings};
+use faithd_daemon::clock::WallStageClock;
+use faithd_daemon::cycle::Work;
 
 /// Decision period, as the daemon runs it.
 const WINDOW_US: i64 = 10_000;

@@ -25,14 +25,14 @@ use std::sync::Arc;
 use serde::Serialize;
 use tokio::sync::mpsc;
 
+use crate::cycle::compute::ComputeCharge;
+pub use camera::CameraKind;
 use faithd_daemon::clock::DaemonClock;
 use faithd_daemon::command::{MspSink, Sink};
 use faithd_daemon::config::FaithdConfig;
 use faithd_daemon::cycle::CycleReport;
-use crate::cycle::compute::ComputeCharge;
 use faithd_daemon::daemon::{self, Ended, Execution, Hooks, Observation};
 use faithd_daemon::link::endpoint::Address;
-pub use camera::CameraKind;
 pub use faithd_sim::world::SceneKind;
 use physics::{PathPoint, Shared, VEHICLE_RADIUS_M};
 

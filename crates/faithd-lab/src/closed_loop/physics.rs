@@ -13,8 +13,8 @@ use serde::Serialize;
 
 use super::FlightSpec;
 use super::camera::{FlightCamera, arena};
-use faithd_daemon::clock::DaemonClock;
 use faithd_core::event::Event;
+use faithd_daemon::clock::DaemonClock;
 use faithd_sim::world::line_camera::ArenaSpec;
 use faithd_sim::world::quad::{Quad, QuadConfig};
 use faithd_sim::world::trajectory::VehicleState;

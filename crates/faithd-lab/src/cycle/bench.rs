@@ -12,13 +12,13 @@ use std::sync::Mutex;
 
 use serde::Serialize;
 
-use faithd_daemon::cycle::{Cycle, DaemonConfig};
-use faithd_daemon::clock::WallStageClock;
 use faithd_core::attitude::{AttitudeLog, AttitudeSample};
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
 use faithd_core::pipeline::PipelineConfig;
 use faithd_core::synth::{Layer, LoomingEdges, looming_edge_events};
+use faithd_daemon::clock::WallStageClock;
+use faithd_daemon::cycle::{Cycle, DaemonConfig};
 
 /// One stream's figures. Key names are published (`--json`): add, never rename.
 #[derive(Clone, Debug, Serialize)]

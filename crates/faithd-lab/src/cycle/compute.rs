@@ -12,8 +12,8 @@
 
 use serde::Serialize;
 
-use faithd_daemon::cycle::Work;
 use faithd_core::pipeline::StageTimings;
+use faithd_daemon::cycle::Work;
 
 /// How much slower one core of the paper's board (UP board, Intel Atom x5-Z8350,
 /// Airmont at 1.44 GHz, 1.92 GHz burst) runs faithd's pipeline than one core of the
