@@ -187,6 +187,7 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
 /// the first event would be 20 ms off after that second, and 50 ms at the end.
 #[test]
 fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
+    let _cpu = crate::common::cpu::timed();
     let _device = device();
     let (lib, script) = mock();
     unsafe {
@@ -322,7 +323,7 @@ fn the_mock_aborts_on_data_stop_of_a_device_never_started() {
     let out = std::process::Command::new(std::env::current_exe().unwrap())
         .args([
             "--exact",
-            "data_stop_before_data_start_in_a_child",
+            "caer_mock::data_stop_before_data_start_in_a_child",
             "--ignored",
             "--nocapture",
         ])

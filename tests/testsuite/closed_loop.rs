@@ -21,6 +21,7 @@ fn json(o: &FlightOutcome) -> String {
 
 #[test]
 fn a_collision_course_is_avoided() {
+    let _cpu = crate::common::cpu::heavy();
     let o = fly(&collision_course(), &FlyOptions::default()).unwrap();
     assert!(o.collision_course);
     assert!(o.rolled, "no roll on a collision course");
@@ -39,6 +40,7 @@ fn a_collision_course_is_avoided() {
 
 #[test]
 fn a_near_pass_is_left_alone() {
+    let _cpu = crate::common::cpu::heavy();
     let o = fly(
         &FlightSpec {
             lateral_offset_m: -0.9,
@@ -61,6 +63,7 @@ fn a_near_pass_is_left_alone() {
 
 #[test]
 fn with_the_switch_in_manual_the_vehicle_hits_the_pole() {
+    let _cpu = crate::common::cpu::heavy();
     let o = fly(
         &FlightSpec {
             pilot_auto: false,
@@ -83,6 +86,7 @@ fn with_the_switch_in_manual_the_vehicle_hits_the_pole() {
 /// thread per flight).
 #[test]
 fn a_flight_is_the_same_on_every_run_and_under_any_load() {
+    let _cpu = crate::common::cpu::heavy();
     let spec = FlightSpec {
         scene: SceneKind::Kitchen,
         ..collision_course()
@@ -113,6 +117,7 @@ fn a_flight_is_the_same_on_every_run_and_under_any_load() {
 /// load, as the daemon would on it; this machine does not.
 #[test]
 fn a_slow_board_overruns_and_sheds_load() {
+    let _cpu = crate::common::cpu::heavy();
     let spec = FlightSpec {
         camera: CameraKind::Line,
         ..collision_course()
@@ -142,6 +147,7 @@ fn a_slow_board_overruns_and_sheds_load() {
 /// Charging the measured time instead of the model flies too (not repeatable).
 #[test]
 fn measured_compute_flies_too() {
+    let _cpu = crate::common::cpu::heavy();
     let o = fly(
         &FlightSpec {
             camera: CameraKind::Line,
@@ -161,6 +167,7 @@ fn measured_compute_flies_too() {
 /// its thread, or a task reporting one) ends that flight and leaves the other alone.
 #[test]
 fn one_flights_fault_ends_that_flight_only() {
+    let _cpu = crate::common::cpu::heavy();
     use faithd::supervise::{Fault, Faults};
     let options = FlyOptions::default();
     let faulty = Faults::new();

@@ -46,8 +46,9 @@ impl Drop for Tmpfs {
 }
 
 fn python_script(script: &str, args: &[&str]) -> String {
+    // dv-processing's readers live beside the formats crate that tests against them.
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/py")
+        .join("crates/faithd-formats/tests/py")
         .join(script);
     let out = Command::new("python3")
         .arg(&path)

@@ -49,6 +49,7 @@ impl Drop for Load {
 
 #[test]
 fn the_same_seed_gives_the_same_json_at_any_parallelism_and_load() {
+    let _cpu = crate::common::cpu::heavy();
     let dir = tempfile::tempdir().unwrap();
     let plot = dir.path().join("outcome.png");
     let plot_arg = plot.to_str().unwrap();
@@ -107,6 +108,7 @@ fn the_same_seed_gives_the_same_json_at_any_parallelism_and_load() {
 
 #[test]
 fn the_demo_flies_on_the_atom_board_and_reports_its_cycles() {
+    let _cpu = crate::common::cpu::heavy();
     let out = faithd(&[
         "demo",
         "--json",
@@ -134,6 +136,7 @@ fn the_demo_flies_on_the_atom_board_and_reports_its_cycles() {
 
 #[test]
 fn a_bad_cpu_scale_is_refused_with_the_reason() {
+    let _cpu = crate::common::cpu::heavy();
     let out = faithd(&["sim", "--cpu-scale", "fast"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);

@@ -142,6 +142,7 @@ fn is_roll(window: &serde_json::Value) -> bool {
 
 #[test]
 fn a_replay_becomes_a_gif_with_a_frame_per_window_showing_its_foe_and_roll() {
+    let _cpu = crate::common::cpu::heavy();
     let dir = common::TempDir::new("video-gif");
     write_recording(&dir.0);
     let gif_path = dir.0.join("flight.gif");
@@ -190,6 +191,7 @@ fn a_replay_becomes_a_gif_with_a_frame_per_window_showing_its_foe_and_roll() {
 
 #[test]
 fn png_frames_are_the_same_pictures_one_file_a_window() {
+    let _cpu = crate::common::cpu::heavy();
     let dir = common::TempDir::new("video-png");
     write_recording(&dir.0);
     let frames_dir = dir.0.join("frames");
@@ -219,6 +221,7 @@ fn png_frames_are_the_same_pictures_one_file_a_window() {
 
 #[test]
 fn a_simulated_flight_films_the_gate_the_roll_on_inav_and_the_true_foe() {
+    let _cpu = crate::common::cpu::heavy();
     let dir = common::TempDir::new("video-demo");
     let gif_path = dir.0.join("demo.gif");
     let plot = dir.0.join("flight.png");
@@ -267,6 +270,7 @@ fn a_simulated_flight_films_the_gate_the_roll_on_inav_and_the_true_foe() {
 
 #[test]
 fn an_mp4_has_every_window_for_ffprobe() {
+    let _cpu = crate::common::cpu::heavy();
     let have = |tool: &str| {
         Command::new(tool)
             .arg("-version")
@@ -322,6 +326,7 @@ fn an_mp4_has_every_window_for_ffprobe() {
 
 #[test]
 fn an_mp4_without_ffmpeg_is_refused_before_anything_is_flown_or_drawn() {
+    let _cpu = crate::common::cpu::heavy();
     let dir = common::TempDir::new("video-no-ffmpeg");
     write_recording(&dir.0);
     let empty = dir.0.join("no-tools");

@@ -85,6 +85,8 @@ pub struct MockAutopilot {
     pub slave_path: PathBuf,
     /// iNav's MSP port for faithd's roll stream, on a pseudo-terminal of its own.
     pub msp: MspMock,
+    /// A timed test: no heavy test runs while the mock does (dropped last).
+    _cpu: super::cpu::Slot,
 }
 
 /// The pilot's roll stick in the mock: off centre, so whose value iNav uses is clear.
@@ -145,6 +147,7 @@ impl MockAutopilot {
 
     /// The mock of a flight controller set up as `setup` says (its MSP port).
     pub fn start_with(controls: Arc<Controls>, setup: Setup) -> Self {
+        let cpu = super::cpu::timed();
         let (master, slave, slave_path) = raw_pty();
         let master = Arc::new(master);
         let stop = Arc::new(AtomicBool::new(false));
@@ -279,6 +282,7 @@ impl MockAutopilot {
             slave: Some(slave),
             master: Some(master),
             slave_path,
+            _cpu: cpu,
         }
     }
 

@@ -1,12 +1,13 @@
 //! Test support, by concern: a mock iNav autopilot speaking MAVLink 2 on a real
 //! pseudo-terminal ([`autopilot`]), iNav's MSP port answered by faithd's model of
 //! iNav ([`msp`]), the real `faithd run` binary as a child process ([`daemon`]), and
-//! iNav's own firmware (SITL) in [`sitl`]. Each test binary compiles this module
-//! and uses some of it; what one binary leaves unused is not dead code.
+//! iNav's own firmware (SITL) in [`sitl`], and which tests may share the cores in
+//! [`cpu`].
 
 #![allow(dead_code)]
 
 pub mod autopilot;
+pub mod cpu;
 pub mod daemon;
 pub mod msp;
 pub mod recording;

@@ -33,6 +33,8 @@ pub struct MspMock {
     stop: Arc<AtomicBool>,
     thread: Option<JoinHandle<()>>,
     _slave: OwnedFd,
+    /// A timed test: no heavy test runs while iNav's port does (dropped last).
+    _cpu: super::cpu::Slot,
 }
 
 /// One MSP_SET_RAW_RC iNav served: when, and its channels.
@@ -57,6 +59,7 @@ impl MspMock {
 
     /// The port of a flight controller set up as `setup` says.
     pub fn start_with(controls: Arc<Controls>, setup: Setup) -> Self {
+        let cpu = super::cpu::timed();
         let (master, slave, slave_path) = raw_pty();
         let roll_log = Arc::new(Mutex::new(Vec::new()));
         let frames = Arc::new(Mutex::new(Vec::new()));
@@ -147,6 +150,7 @@ impl MspMock {
             stop,
             thread: Some(thread),
             _slave: slave,
+            _cpu: cpu,
         }
     }
 

@@ -124,12 +124,16 @@ pub struct Sitl {
     /// UARTs (1-based) the saved set-up gives a function: each must listen again
     /// after a save before the set-up is in effect.
     uarts: Mutex<std::collections::BTreeSet<u16>>,
+    /// A timed test: iNav's serial task keeps the board's 10 ms only on an idle core
+    /// (dropped last).
+    _cpu: super::cpu::Slot,
 }
 
 impl Sitl {
     /// Starts a fresh SITL (empty EEPROM) and waits for its CLI port.
     pub fn start() -> Self {
         let exe = executable().expect("INAV_SITL is not set: call require_sitl!() first");
+        let cpu = super::cpu::timed();
         let dir = TempDir::new("sitl");
         let base_port = free_base_port();
         let log = std::fs::File::create(dir.0.join("sitl.log")).unwrap();
@@ -165,6 +169,7 @@ impl Sitl {
             base_port,
             dir,
             uarts: Mutex::new([UART_CLI, UART_MONITOR].into()),
+            _cpu: cpu,
         };
         sitl.wait_for_msp(Duration::from_secs(10));
         sitl
