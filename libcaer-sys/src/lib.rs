@@ -182,7 +182,7 @@ macro_rules! libcaer_functions {
 
         /// Every symbol faithd loads from libcaer, by name: all of them functions that
         /// libcaer 3.x's shared library exports (checked against the real library by
-        /// `tests/libcaer_real.rs` when `LIBCAER_PATH` names one).
+        /// `tests/testsuite/libcaer_real.rs` when `LIBCAER_PATH` names one).
         pub const LOADED_SYMBOLS: &[&str] = &[$(stringify!($name)),*];
 
         impl Libcaer {

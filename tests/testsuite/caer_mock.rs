@@ -645,7 +645,7 @@ const LIBCAER_3_DEVICE_EXPORTS: [&str; 12] = [
 /// faithd loads by name only what libcaer 3.x exports, and the mock, like libcaer,
 /// does not export the container functions its header makes static inline: a faithd
 /// that loaded them by name would fail to load the mock as it failed on the real
-/// library (`tests/libcaer_real.rs` checks the real one when given its path).
+/// library (`tests/testsuite/libcaer_real.rs` checks the real one when given its path).
 #[test]
 fn faithd_loads_only_what_libcaer_exports_and_the_mock_exports_no_inline_function() {
     for symbol in libcaer_sys::LOADED_SYMBOLS {

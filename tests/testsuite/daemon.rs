@@ -5,7 +5,7 @@
 //! These are the situations iNav's own firmware cannot be made to produce on
 //! demand: stale telemetry, garbage on the wire, a port that vanishes, a status that
 //! says failsafe, a roll iNav silently ignores. What the route does on the real
-//! firmware is `tests/inav_sitl.rs`.
+//! firmware is `tests/testsuite/inav_sitl.rs`.
 
 use crate::common;
 
@@ -26,7 +26,7 @@ const ROLL_FRAME_PERIOD: Duration = Duration::from_millis(40);
 /// (iNav's next serial task run, up to 10 ms), the next slot (20 ms), iNav serving
 /// the frame (10 ms).
 const TO_INAV: Duration = Duration::from_millis(40);
-/// The mock sends RC_CHANNELS every 20 ms (tests/common/autopilot.rs says why).
+/// The mock sends RC_CHANNELS every 20 ms (tests/testsuite/common/autopilot.rs says why).
 const TELEMETRY: Duration = Duration::from_millis(20);
 const ROLL: Duration = Duration::from_millis(1500);
 const CENTRE_US: u16 = 1500;

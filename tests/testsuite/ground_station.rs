@@ -13,7 +13,7 @@
 //!
 //! Needs python3 with pymavlink (`.ci/run` installs it). Without it the test is
 //! skipped with a message, unless `CI` is set: there it fails.
-//! `cargo test --test ground_station -- --nocapture` prints what the ground station
+//! `cargo test --test testsuite ground_station:: -- --nocapture` prints what the ground station
 //! showed (the capture in docs/daemon.md).
 
 use crate::common;

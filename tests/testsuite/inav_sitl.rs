@@ -4,7 +4,7 @@
 //! MAVLink and MSP ports. Every assertion is on what iNav itself uses, read back over
 //! MSP (MSP_RC, MSP2_INAV_STATUS) on a port of its own, never on what faithd sent.
 //!
-//! `cargo test --release --test inav_sitl -- --nocapture` prints the measured
+//! `cargo test --release --test testsuite inav_sitl:: -- --nocapture` prints the measured
 //! figures (application delay, in-effect share, release delay) docs/inav.md quotes.
 
 use crate::common;

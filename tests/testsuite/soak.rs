@@ -4,7 +4,7 @@
 //! along. Resident memory and open descriptors are sampled and must stay flat.
 //!
 //! `soak_briefly` runs in every test run (30 s); the hour is
-//! `FAITHD_SOAK_SECS=3600 cargo test --release --test soak -- --ignored --nocapture`.
+//! `FAITHD_SOAK_SECS=3600 cargo test --release --test testsuite soak:: -- --ignored --nocapture`.
 
 use crate::common;
 
@@ -129,7 +129,7 @@ fn soak_briefly() {
 }
 
 #[test]
-#[ignore = "an hour: FAITHD_SOAK_SECS=3600 cargo test --release --test soak -- --ignored --nocapture"]
+#[ignore = "an hour: FAITHD_SOAK_SECS=3600 cargo test --release --test testsuite soak:: -- --ignored --nocapture"]
 fn soak_for_an_hour() {
     let secs = std::env::var("FAITHD_SOAK_SECS")
         .ok()

@@ -1,6 +1,7 @@
-//! The crate boundaries hold: the core links nothing that does I/O, and the flight
-//! build (no `sim` feature) links neither the simulator nor plotters nor the video
-//! encoders. Read from
+//! The crate boundaries hold (docs/design.md, "Crates"): the core links nothing that
+//! does I/O; the flight daemon links no lab, no model of iNav and no simulator; the
+//! flight build (no `sim` feature) links neither the lab nor the simulator nor
+//! plotters nor the video encoders; the lab flies the daemon itself. Read from
 //! `cargo tree`, i.e. from what cargo would actually build.
 
 use std::process::Command;
@@ -57,15 +58,44 @@ fn the_core_links_no_runtime_protocol_format_or_plotting_crate() {
 }
 
 #[test]
-fn the_flight_build_links_no_simulator() {
+fn the_flight_daemon_links_no_lab_no_model_and_no_simulator() {
+    let daemon = dependencies("faithd-daemon", &[]);
+    assert!(daemon.iter().any(|d| d == "faithd-core"), "{daemon:?}");
+    for banned in [
+        "faithd-lab",
+        "faithd-inav",
+        "faithd-sim",
+        "plotters",
+        "gif",
+        "png",
+    ] {
+        assert!(
+            !daemon.iter().any(|d| d == banned),
+            "faithd-daemon links {banned}"
+        );
+    }
+    // The lab's flights run the daemon's own code, not a copy of it.
+    let lab = dependencies("faithd-lab", &[]);
+    assert!(lab.iter().any(|d| d == "faithd-daemon"), "{lab:?}");
+}
+
+#[test]
+fn the_flight_build_links_no_lab_and_no_simulator() {
     let flight = dependencies("faithd", &["--no-default-features"]);
-    assert!(flight.iter().any(|d| d == "faithd-core"), "{flight:?}");
-    for banned in ["faithd-sim", "plotters", "gif", "png"] {
+    assert!(flight.iter().any(|d| d == "faithd-daemon"), "{flight:?}");
+    for banned in [
+        "faithd-lab",
+        "faithd-inav",
+        "faithd-sim",
+        "plotters",
+        "gif",
+        "png",
+    ] {
         assert!(
             !flight.iter().any(|d| d == banned),
             "the flight build links {banned}"
         );
     }
     let workstation = dependencies("faithd", &[]);
-    assert!(workstation.iter().any(|d| d == "faithd-sim"));
+    assert!(workstation.iter().any(|d| d == "faithd-lab"), "{workstation:?}");
 }

@@ -16,7 +16,7 @@ use super::{hold_output, poll_until, raw_pty};
 /// behaves on a flight controller (`faithd_inav::msp`: one command per
 /// 10 ms, a 256-byte receive ring, the override's timing and scaling, modes). It
 /// records the roll the model's iNav uses every millisecond, and what crossed the
-/// port. A model encodes our assumptions: `tests/inav_sitl.rs` holds faithd to iNav's
+/// port. A model encodes our assumptions: `tests/testsuite/inav_sitl.rs` holds faithd to iNav's
 /// own firmware; these tests cover what SITL cannot be made to do (stale telemetry,
 /// garbage on the wire, a vanishing port) and run in CI, which has no SITL.
 pub struct MspMock {
