@@ -70,8 +70,10 @@ fn every_subcommand_has_a_manual_page_that_man_renders() {
         expected.extend(nested.iter().map(|n| format!("faithd-{sub}-{n}")));
     }
     assert!(expected.contains(&"faithd-run".to_string()), "{expected:?}");
-    assert!(
+    // The lab's commands exactly when the build has the lab.
+    assert_eq!(
         expected.contains(&"faithd-bench-pipeline".to_string()),
+        cfg!(feature = "sim"),
         "{expected:?}"
     );
     let mut written: Vec<String> = std::fs::read_dir(dir.path())
@@ -101,10 +103,13 @@ fn every_subcommand_has_a_manual_page_that_man_renders() {
         assert!(text.contains(page.as_str()), "{page}: {text}");
     }
     // A page documents its command's options, with their help.
-    let sim = man_text(&dir.path().join("faithd-sim.1"));
-    assert!(sim.contains("--cpu-scale"), "{sim}");
     let run = man_text(&dir.path().join("faithd-run.1"));
     assert!(run.contains("--config"), "{run}");
+    assert!(run.contains("--simulated-camera"), "{run}");
+    if cfg!(feature = "sim") {
+        let sim = man_text(&dir.path().join("faithd-sim.1"));
+        assert!(sim.contains("--cpu-scale"), "{sim}");
+    }
 }
 
 /// What bash offers after `words` (the last one being completed).
@@ -141,17 +146,26 @@ fn bash_completes_subcommands_and_options_from_the_generated_script() {
 
     assert_eq!(bash_completes(&script, &["faithd", "rep"]), ["replay"]);
     assert_eq!(
-        bash_completes(&script, &["faithd", "sim", "--cpu"]),
-        ["--cpu-scale"]
+        bash_completes(&script, &["faithd", "run", "--simulated"]),
+        ["--simulated-camera"]
     );
+    // The lab's commands are offered exactly when the build has them.
     let bench = bash_completes(&script, &["faithd", "bench", ""]);
-    for sub in ["foe", "pipeline", "compute"] {
-        assert!(bench.iter().any(|w| w == sub), "{bench:?}");
+    if cfg!(feature = "sim") {
+        assert_eq!(
+            bash_completes(&script, &["faithd", "sim", "--cpu"]),
+            ["--cpu-scale"]
+        );
+        for sub in ["foe", "pipeline", "compute"] {
+            assert!(bench.iter().any(|w| w == sub), "{bench:?}");
+        }
+    } else {
+        assert!(!bench.iter().any(|w| w == "pipeline"), "{bench:?}");
     }
 
     for shell in ["zsh", "fish"] {
         let script = stdout(&faithd(&["completions", shell]));
-        assert!(script.contains("cpu-scale"), "{shell}: {script}");
+        assert!(script.contains("simulated-camera"), "{shell}: {script}");
     }
     let refused = faithd(&["completions", "tcsh"]);
     assert_eq!(refused.status.code(), Some(2));
@@ -162,6 +176,10 @@ fn the_version_names_the_builds_features() {
     let version = stdout(&faithd(&["--version"]));
     assert!(version.starts_with("faithd 0."), "{version}");
     assert!(version.contains("camera"), "{version}");
-    // The tests build with the simulation commands (the default features).
-    assert!(version.contains("sim (demo, sim, bench)"), "{version}");
+    if cfg!(feature = "sim") {
+        assert!(version.contains("sim (demo, sim, bench)"), "{version}");
+    } else {
+        assert!(version.contains("flight build"), "{version}");
+        assert!(version.contains("without: sim"), "{version}");
+    }
 }

@@ -97,5 +97,8 @@ fn the_flight_build_links_no_lab_and_no_simulator() {
         );
     }
     let workstation = dependencies("faithd", &[]);
-    assert!(workstation.iter().any(|d| d == "faithd-lab"), "{workstation:?}");
+    assert!(
+        workstation.iter().any(|d| d == "faithd-lab"),
+        "{workstation:?}"
+    );
 }
