@@ -15,6 +15,8 @@ mod closed_loop;
 mod daemon;
 mod faults;
 mod ground_station;
+#[cfg(feature = "sim")]
+mod inav_flight;
 mod inav_sitl;
 mod libcaer_real;
 mod manual;

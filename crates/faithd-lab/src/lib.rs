@@ -6,4 +6,5 @@
 
 pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav
 pub mod cycle; // the pipeline in simulated time, its compute charged as on the board
+pub mod realflight; // iNav SITL's RealFlight interface: iNav's own controller flies a quad-X
 pub mod video; // a flight as a video: every window's picture, decision, gate and roll

@@ -132,6 +132,11 @@ pub struct Sitl {
 impl Sitl {
     /// Starts a fresh SITL (empty EEPROM) and waits for its CLI port.
     pub fn start() -> Self {
+        Self::start_with(&[])
+    }
+
+    /// A fresh SITL with `args` on its command line (`--sim=rf ...` for a simulator).
+    pub fn start_with(args: &[String]) -> Self {
         let exe = executable().expect("INAV_SITL is not set: call require_sitl!() first");
         let cpu = super::cpu::timed();
         let dir = TempDir::new("sitl");
@@ -158,6 +163,7 @@ impl Sitl {
         let child = command
             .arg(format!("--tcpbaseport={base_port}"))
             .arg(format!("--path={}", dir.0.join("eeprom.bin").display()))
+            .args(args)
             .current_dir(&dir.0)
             .stdin(Stdio::null())
             .stdout(log.try_clone().unwrap())

@@ -10,6 +10,7 @@
 pub mod dvs;
 pub mod line_camera;
 pub mod quad;
+pub mod quad_x;
 pub mod scene;
 pub mod scenes;
 pub mod texture;
