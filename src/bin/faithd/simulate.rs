@@ -69,6 +69,16 @@ enum Camera {
     Line,
 }
 
+/// Who flies the vehicle in `faithd sim`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Autopilot {
+    /// faithd's model of iNav in simulated time: deterministic, faster than real time.
+    Model,
+    /// iNav's own flight controller (its SITL build, `--inav-sitl`) flying the
+    /// simulated quad-X in real time, each flight also flown on the model.
+    InavSitl,
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Scene {
     Arena,
@@ -196,6 +206,15 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 1, requires = "video",
           value_parser = clap::value_parser!(u32).range(1..))]
     video_flight: u32,
+    /// Who flies: faithd's model of iNav (deterministic; the default), or iNav's
+    /// own flight controller through its SITL build, in real time (about 20 s a
+    /// flight), beside the model on the same flights.
+    #[arg(long, value_enum, default_value_t = Autopilot::Model)]
+    autopilot: Autopilot,
+    /// With --autopilot inav-sitl: iNav 9.1's SITL executable, built beside the
+    /// project with the board's serial timing (docs/simulation.md).
+    #[arg(long, env = "INAV_SITL")]
+    inav_sitl: Option<PathBuf>,
 }
 
 /// `faithd bench foe`.
@@ -242,7 +261,9 @@ pub fn sim(args: &SimArgs) -> Result<(), Failure> {
             "--video films a closed-loop flight; --straight flies none",
         ));
     }
-    if args.straight {
+    if args.autopilot == Autopilot::InavSitl {
+        sim_inav_sitl(args)
+    } else if args.straight {
         sim_straight(args)
     } else {
         sim_closed_loop(args)
@@ -376,6 +397,72 @@ fn write_flight_video(
         filming.add(frame).map_err(Failure::failed)?;
     }
     filming.finish()
+}
+
+/// `faithd sim --autopilot inav-sitl`: the experiment with iNav's SITL in the loop,
+/// in real time, one flight after the other, each beside the model's.
+fn sim_inav_sitl(args: &SimArgs) -> Result<(), Failure> {
+    use faithd::inav_sitl::experiment;
+    let Some(exe) = args.inav_sitl.as_deref() else {
+        return Err(Failure::refused(
+            "--autopilot inav-sitl needs iNav 9.1's SITL: --inav-sitl PATH or INAV_SITL (built beside the project with the board's serial timing; docs/simulation.md)",
+        ));
+    };
+    if !exe.is_file() {
+        return Err(Failure::refused(format!(
+            "--inav-sitl {}: no such file",
+            exe.display()
+        )));
+    }
+    if args.straight || args.video.video.is_some() {
+        return Err(Failure::refused(
+            "--autopilot inav-sitl flies the closed loop in real time, without --straight or --video",
+        ));
+    }
+    let (runs, seed) = (args.runs, args.seed);
+    let specs = experiment::plan(runs, seed);
+    eprintln!(
+        "faithd sim: {runs} flights with iNav's SITL ({}) flying the quad-X in real time, seed {seed}, line camera; each also flown on the model",
+        exe.display()
+    );
+    let started = std::time::Instant::now();
+    let flights = experiment::fly_all(&specs, exe, |i, c| {
+        eprintln!(
+            "  flight {}/{runs}: {} {:+.2} m; iNav: {}{}, bank {}, in effect {}; model: {}{}",
+            i + 1,
+            if c.inav.collision_course {
+                "collision"
+            } else {
+                "near pass"
+            },
+            c.spec.lateral_offset_m,
+            if c.inav.rolled { "rolled" } else { "no roll" },
+            if c.inav.collided { ", HIT" } else { "" },
+            c.inav
+                .peak_bank_deg
+                .map_or("-".into(), |b| format!("{b:.1} deg")),
+            c.inav
+                .in_effect_ms
+                .map_or("-".into(), |t| format!("{t:.0} ms")),
+            if c.model.rolled { "rolled" } else { "no roll" },
+            if c.model.collided { ", HIT" } else { "" },
+        );
+    })
+    .map_err(|e| Failure::failed(e.to_string()))?;
+    let report = experiment::report(&flights, seed);
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({"report": report, "flights": flights})
+        );
+    } else {
+        println!(
+            "faithd sim --autopilot inav-sitl: {runs} flights, seed {seed}, {:.0} s\n",
+            started.elapsed().as_secs_f64()
+        );
+        print!("{}", report.table());
+    }
+    Ok(())
 }
 
 fn sim_closed_loop(args: &SimArgs) -> Result<(), Failure> {

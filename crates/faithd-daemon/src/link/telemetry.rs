@@ -18,16 +18,27 @@ pub enum Update {
     Ignored,
 }
 
-/// An ATTITUDE message as a core sample stamped `t_us`.
+/// An ATTITUDE message from iNav as a core sample stamped `t_us`.
+///
+/// The angles are MAVLink's (radians; iNav 9.1 src/main/telemetry/mavlink.c:723-728
+/// negates its own pitch to give MAVLink's nose-up positive). The rates are not:
+/// mavlink.c:729-734 sends `gyro.gyroADCf` as they are, which is degrees per second
+/// (src/main/sensors/gyro.c:420 converts it to radians only for the IMU) in iNav's
+/// body frame, forward-left-up (flight/imu.c:624-626), where a positive pitch rate
+/// lowers the nose and a positive yaw rate turns it left. Derotation wants radians
+/// per second about forward-right-down: roll as sent, pitch and yaw negated. Read
+/// as MAVLink's radians, a 38 deg/s roll was a 38 rad/s one (seen on iNav's SITL
+/// flying the lab's quad-X: the FOE 115 px off and no roll on a collision course).
 pub fn attitude_sample(t_us: i64, a: &ATTITUDE_DATA) -> AttitudeSample {
+    let rate_rad_s = |deg_s: f32| f64::from(deg_s).to_radians();
     AttitudeSample {
         t_us,
         roll_rad: f64::from(a.roll),
         pitch_rad: f64::from(a.pitch),
         yaw_rad: f64::from(a.yaw),
-        roll_rate_rad_s: f64::from(a.rollspeed),
-        pitch_rate_rad_s: f64::from(a.pitchspeed),
-        yaw_rate_rad_s: f64::from(a.yawspeed),
+        roll_rate_rad_s: rate_rad_s(a.rollspeed),
+        pitch_rate_rad_s: -rate_rad_s(a.pitchspeed),
+        yaw_rate_rad_s: -rate_rad_s(a.yawspeed),
     }
 }
 
@@ -113,6 +124,29 @@ pub fn apply(
 mod tests {
     use super::*;
     use mavlink::dialects::common::{HEARTBEAT_DATA, RC_CHANNELS_DATA};
+
+    /// What iNav's SITL sent while the lab's quad-X rolled left at about 38 deg/s and
+    /// lowered its nose at about 11 deg/s: rates in degrees per second, pitch positive
+    /// nose down. Derotation gets radians per second, nose up positive.
+    #[test]
+    fn inavs_rates_in_degrees_about_forward_left_up_become_radians_about_frd() {
+        let a = ATTITUDE_DATA {
+            time_boot_ms: 13_240,
+            roll: -0.091,
+            pitch: -0.066,
+            yaw: 0.079,
+            rollspeed: -38.488,
+            pitchspeed: 11.509,
+            yawspeed: 4.0,
+        };
+        let s = attitude_sample(7, &a);
+        assert!((s.roll_rate_rad_s - (-38.488f64).to_radians()).abs() < 1e-6);
+        assert!((s.pitch_rate_rad_s - (-11.509f64).to_radians()).abs() < 1e-6);
+        assert!((s.yaw_rate_rad_s - (-4.0f64).to_radians()).abs() < 1e-6);
+        // The angles are MAVLink's already.
+        assert_eq!(s.roll_rad, f64::from(a.roll));
+        assert_eq!(s.pitch_rad, f64::from(a.pitch));
+    }
 
     #[test]
     fn heartbeat_armed_flag_and_rc_count() {

@@ -213,9 +213,11 @@ fn telemetry(shared: &Shared, clock: &DaemonClock) -> (MavMessage, u16, u16) {
         roll: roll as f32,
         pitch: pitch as f32,
         yaw: yaw as f32,
-        rollspeed: rates.x as f32,
-        pitchspeed: rates.y as f32,
-        yawspeed: rates.z as f32,
+        // As iNav sends them (telemetry/mavlink.c:729-734): its gyro in degrees per
+        // second, about forward-left-up (flight/imu.c:624-626), not MAVLink's radians.
+        rollspeed: rates.x.to_degrees() as f32,
+        pitchspeed: -rates.y.to_degrees() as f32,
+        yawspeed: -rates.z.to_degrees() as f32,
     });
     let switch_us = if shared.switch_auto.load(Ordering::Relaxed) {
         1900

@@ -173,6 +173,12 @@ pub struct FlightOutcome {
     /// roll calls that led to the roll: includes the time the safety gate held it
     /// (the switch not yet in AUTO, the MSP stream not yet warm).
     pub latency_from_first_call_ms: Option<f64>,
+    /// Flight time of the newest event of the deciding window, and of the roll's
+    /// arrival at the autopilot, seconds (to line the path up with the latencies).
+    #[serde(skip)]
+    pub event_s: Option<f64>,
+    #[serde(skip)]
+    pub roll_in_use_s: Option<f64>,
     /// Simulated time the daemon's compute cost, and what it shed.
     pub pipeline: CycleFigures,
     /// Events the camera fired.
@@ -339,6 +345,8 @@ async fn fly_simulated(
         ttc_at_decision_s,
         latency_ms: received.map(|(last, _, _)| rx_after(last)),
         latency_from_first_call_ms: received.map(|(_, first, _)| rx_after(first)),
+        event_s: started.map(|(last, _, _)| (last - start_us) as f64 * 1e-6),
+        roll_in_use_s: received.map(|_| (first_rx - start_us) as f64 * 1e-6),
         pipeline,
         events: log.events,
         decision,
