@@ -194,3 +194,47 @@ fn one_flights_fault_ends_that_flight_only() {
     let b = b.expect("flight B flies on");
     assert!(b.rolled && !b.collided, "flight B: {}", json(&b));
 }
+
+/// What CI keeps of what iNav's SITL taught: the model's roll, end to end (faithd's
+/// MSP stream into the model of iNav's port, the receiver frame, the ANGLE
+/// response), stays within the stated bounds of what iNav's own controller did on
+/// the same flights (`faithd::inav_sitl::measured`; the SITL side is
+/// `inav_flight::faithd_avoids_the_pole_through_inavs_own_controller`).
+#[test]
+fn the_model_rolls_as_inavs_own_controller_did() {
+    use faithd::inav_sitl::experiment::{RollFigures, plan};
+    use faithd::inav_sitl::measured;
+    let _cpu = crate::common::cpu::heavy();
+    let rolls: Vec<RollFigures> = plan(5, 1)
+        .iter()
+        .filter(|s| s.is_collision_course())
+        .map(|s| RollFigures::of_model(&fly(s, &FlyOptions::default()).unwrap()))
+        .collect();
+    assert_eq!(rolls.len(), 3);
+    let p50 = |f: fn(&RollFigures) -> f64| {
+        let mut v: Vec<f64> = rolls.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    for r in &rolls {
+        assert!(r.rolled && !r.collided, "{r:?}");
+        let peak = r.peak_bank_deg.unwrap();
+        assert!(
+            measured::PEAK_BANK_DEG.holds(peak),
+            "peak bank {peak}: {r:?}"
+        );
+    }
+    let in_effect = p50(|r| r.in_effect_ms.unwrap());
+    let to_5 = p50(|r| r.bank_5_deg_ms.unwrap() - r.in_effect_ms.unwrap());
+    let to_90 = p50(|r| r.bank_90_ms.unwrap() - r.in_effect_ms.unwrap());
+    println!(
+        "model: event -> roll in use {in_effect:.0} ms, then 5 deg after {to_5:.0} ms, 90 % after \
+         {to_90:.0} ms (iNav: {:?}, {:?}, {:?})",
+        measured::EVENT_TO_MIXER_MS,
+        measured::MIXER_TO_5_DEG_MS,
+        measured::MIXER_TO_90_PERCENT_MS
+    );
+    assert!(measured::EVENT_TO_MIXER_MS.holds(in_effect), "{in_effect}");
+    assert!(measured::MIXER_TO_5_DEG_MS.holds(to_5), "{to_5}");
+    assert!(measured::MIXER_TO_90_PERCENT_MS.holds(to_90), "{to_90}");
+}

@@ -145,3 +145,34 @@ fn a_bad_cpu_scale_is_refused_with_the_reason() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("0.01 to 100"));
 }
+
+/// `faithd sim --autopilot inav-sitl` needs iNav's SITL: without one it says where
+/// to get it and flies nothing; a path that names no file is refused with the path.
+#[test]
+fn inav_in_the_loop_without_its_sitl_is_refused_with_where_to_get_it() {
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_faithd"))
+            .args(args)
+            .env_remove("INAV_SITL")
+            .output()
+            .expect("run faithd")
+    };
+    let out = run(&["sim", "--autopilot", "inav-sitl", "--runs", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--inav-sitl PATH or INAV_SITL"), "{err}");
+    assert!(!err.contains("flight 1"), "{err}");
+    let out = run(&[
+        "sim",
+        "--autopilot",
+        "inav-sitl",
+        "--inav-sitl",
+        "/nonexistent/inav_SITL",
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("/nonexistent/inav_SITL: no such file"),
+        "{err}"
+    );
+}

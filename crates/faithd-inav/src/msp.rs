@@ -368,17 +368,7 @@ impl InavMsp {
     /// `getAxisRcCommand`, fc/rc_curves.c `rcLookup`, flight/pid.c).
     pub fn roll_target(&self) -> RollTarget {
         let s = &self.setup;
-        let deflection = (i32::from(self.roll_in_use()) - 1500).clamp(-500, 500);
-        let deadband = i32::from(s.deadband_us);
-        let rescaled = if deflection.abs() < deadband {
-            0
-        } else if deflection > 0 {
-            (deflection - deadband) * 500 / (500 - deadband)
-        } else {
-            (deflection + deadband) * 500 / (500 - deadband)
-        };
-        let x = rescaled as f32 / 100.0;
-        let command = ((2500.0 + f32::from(s.rc_expo) * (x * x - 25.0)) * x / 25.0).round() as f64;
+        let command = rc_command(s, self.roll_in_use());
         if self.angle_mode() {
             RollTarget::BankDeg(
                 command / 500.0 * f64::from(s.max_angle_inclination_rll_ddeg) / 10.0,
@@ -810,6 +800,25 @@ impl Parser {
 /// An MSP v2 frame from the flight controller.
 fn encode(direction: u8, command: u16, payload: &[u8]) -> Vec<u8> {
     frame::encode(direction, command, payload)
+}
+
+/// iNav's rcCommand (-500..500) for a roll or pitch channel at `stick_us`: the
+/// deflection from 1500 within +-500 (fc/fc_core.c:180-198), the rescaled deadband
+/// (common/maths.c:156-166) and the stabilised modes' expo (fc/rc_curves.c:56-60).
+/// ANGLE turns it into an angle of rcCommand / 500 of the maximum inclination
+/// (flight/pid.c:417-421): faithd's +300 us gives 165, 14.85 degrees of 45.
+pub fn rc_command(setup: &Setup, stick_us: u16) -> f64 {
+    let deflection = (i32::from(stick_us) - 1500).clamp(-500, 500);
+    let deadband = i32::from(setup.deadband_us);
+    let rescaled = if deflection.abs() < deadband {
+        0
+    } else if deflection > 0 {
+        (deflection - deadband) * 500 / (500 - deadband)
+    } else {
+        (deflection + deadband) * 500 / (500 - deadband)
+    };
+    let x = rescaled as f32 / 100.0;
+    ((2500.0 + f32::from(setup.rc_expo) * (x * x - 25.0)) * x / 25.0).round() as f64
 }
 
 #[cfg(test)]

@@ -428,7 +428,7 @@ fn sim_inav_sitl(args: &SimArgs) -> Result<(), Failure> {
     let started = std::time::Instant::now();
     let flights = experiment::fly_all(&specs, exe, |i, c| {
         eprintln!(
-            "  flight {}/{runs}: {} {:+.2} m; iNav: {}{}, bank {}, in effect {}; model: {}{}",
+            "  flight {}/{runs}: {} {:+.2} m at {:.2} m/s (iNav's vehicle at {:.2}); iNav: {}{}, bank {}, in effect {}; model: {}{}",
             i + 1,
             if c.inav.collision_course {
                 "collision"
@@ -436,6 +436,8 @@ fn sim_inav_sitl(args: &SimArgs) -> Result<(), Failure> {
                 "near pass"
             },
             c.spec.lateral_offset_m,
+            c.spec.speed_m_s,
+            c.speed_at_start_m_s,
             if c.inav.rolled { "rolled" } else { "no roll" },
             if c.inav.collided { ", HIT" } else { "" },
             c.inav

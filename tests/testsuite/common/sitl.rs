@@ -82,10 +82,16 @@ impl Sitl {
 
     /// A fresh SITL with `args` on its command line (`--sim=rf ...` for a simulator).
     pub fn start_with(args: &[String]) -> Self {
+        Self::try_start_with(args).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// [`Sitl::start_with`], with SITL's failure to start as an error (a SITL that
+    /// ended by itself is [`process::SitlError::Crashed`]).
+    pub fn try_start_with(args: &[String]) -> Result<Self, process::SitlError> {
         let exe = executable().expect("INAV_SITL is not set: call require_sitl!() first");
         let cpu = super::cpu::timed();
-        let inner = process::Sitl::start(&exe, args).unwrap_or_else(|e| panic!("{e}"));
-        Sitl { inner, _cpu: cpu }
+        let inner = process::Sitl::start(&exe, args)?;
+        Ok(Sitl { inner, _cpu: cpu })
     }
 
     /// A fresh SITL with the pilot's set-up and faithd's committed script applied,
@@ -107,7 +113,11 @@ impl Sitl {
     /// Runs CLI lines, then `save`, and waits for the restarted SITL; panics on a
     /// line iNav refused.
     pub fn cli_save(&self, lines: &[String]) {
-        self.inner.cli_save(lines).unwrap_or_else(|e| panic!("{e}"))
+        self.try_cli_save(lines).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    pub fn try_cli_save(&self, lines: &[String]) -> Result<(), process::SitlError> {
+        self.inner.cli_save(lines)
     }
 }
 

@@ -218,13 +218,14 @@ mod tests {
         assert_eq!(state.last_attitude_us, None);
         let good = MavMessage::ATTITUDE(ATTITUDE_DATA {
             time_boot_ms: 100,
-            yawspeed: 0.5,
+            // iNav's degrees per second, nose left positive.
+            yawspeed: 30.0,
             ..Default::default()
         });
         let Update::Attitude(s) = apply(&mut state, &mut sync, &good, 1_100_000) else {
             panic!()
         };
         assert_eq!(s.t_us, 1_100_000);
-        assert_eq!(s.yaw_rate_rad_s, 0.5);
+        assert!((s.yaw_rate_rad_s + 30f64.to_radians()).abs() < 1e-9);
     }
 }

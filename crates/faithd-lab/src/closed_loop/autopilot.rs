@@ -19,7 +19,7 @@ use super::uart;
 use faithd_daemon::clock::DaemonClock;
 use faithd_daemon::link::endpoint::InProcessPort;
 use faithd_inav::mavlink::{self as inav_mavlink, encode};
-use faithd_inav::msp::{InavMsp, Pilot, Setup};
+use faithd_inav::msp::{InavMsp, Pilot, RollTarget, Setup};
 
 /// The autopilot's boot clock runs on its own origin, as a real one does.
 const BOOT_OFFSET_MS: i64 = 73_000;
@@ -128,15 +128,23 @@ async fn run_mavlink(
 /// The pilot's roll stick in the simulated flights: centred.
 const PILOT_ROLL_US: u16 = 1500;
 
+/// The pilot's receiver sends a frame every 7 ms (IBUS, the receiver of the SITL
+/// experiment; rx/ibus.c). iNav recomputes the channels it flies with, the
+/// override's among them, when such a frame has come in (rx/rx.c), so a roll waits
+/// up to one frame there: on iNav's SITL the roll reached the mixer 8 ms later, on
+/// average, than this model had it in use before it waited.
+const RX_FRAME_US: i64 = 7_000;
+
 /// iNav's MSP port (one session at a time: faithd reopens after a loss), run as a
 /// flight controller runs it ([`faithd_inav::msp`]) every millisecond of simulated
-/// time; the roll iNav uses goes to the physics at once.
+/// time; the roll iNav uses goes to the physics at the pilot's next receiver frame.
 async fn run_msp(
     mut sessions: mpsc::UnboundedReceiver<DuplexStream>,
     shared: Arc<Shared>,
     clock: DaemonClock,
 ) {
     let mut fc = InavMsp::new(Setup::default(), clock.now_us());
+    let mut next_rx_frame_us = clock.now_us();
     let mut session: Option<Session> = None;
     let mut tick = tokio::time::interval(Duration::from_millis(1));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -159,7 +167,12 @@ async fn run_msp(
                 {
                     session = None;
                 }
-                publish_roll(&fc, &shared, now_us);
+                // iNav takes the override's channels when it processes the pilot's
+                // next receiver frame (rx/rx.c), not the moment they arrive.
+                if now_us >= next_rx_frame_us {
+                    publish_roll(&fc, &shared, now_us);
+                    next_rx_frame_us += RX_FRAME_US;
+                }
             }
             got = read(&mut session, &mut buf) => {
                 match got {
@@ -188,6 +201,18 @@ fn pilot(shared: &Shared) -> Pilot {
 fn publish_roll(fc: &InavMsp, shared: &Shared, now_us: i64) {
     let roll_us = fc.roll_in_use();
     shared.roll_us.store(roll_us, Ordering::Relaxed);
+    let target_rad = match fc.roll_target() {
+        RollTarget::BankDeg(deg) => deg.to_radians(),
+        // Outside ANGLE the stick is a rate: the bank it would reach by the next
+        // receiver frame (the simulated pilot always flies in ANGLE).
+        RollTarget::RateDegS(deg_s) => {
+            f64::from_bits(shared.bank_target_rad.load(Ordering::Relaxed))
+                + (deg_s * RX_FRAME_US as f64 * 1e-6).to_radians()
+        }
+    };
+    shared
+        .bank_target_rad
+        .store(target_rad.to_bits(), Ordering::Relaxed);
     if roll_us != PILOT_ROLL_US {
         // The first moment iNav used a deflected roll after a manoeuvre started.
         let _ = shared.first_roll_rx_us.compare_exchange(

@@ -38,7 +38,7 @@ pub fn measure(spec: &FlightSpec, config: &PipelineConfig) -> Vec<(Work, StageTi
     let mut samples = Vec::new();
     while quad.position_m.x < spec.end_x_m() {
         t_us += STEP_US;
-        quad.step(1500, STEP_US as f64 * 1e-6);
+        quad.step(0.0, STEP_US as f64 * 1e-6);
         let state = quad.state();
         camera.step(&state, t_us, &mut pending);
         if t_us % ATTITUDE_US == 0 {

@@ -1,5 +1,5 @@
 //! The simulated world, stepped every millisecond of simulated time: the vehicle
-//! answers the roll stick the simulated iNav uses, the camera renders events along
+//! banks toward what the simulated iNav's ANGLE makes of the roll it uses, the camera renders events along
 //! the true path, the pilot's switch goes to AUTO on time, and the flight ends past
 //! the first pole or on contact.
 
@@ -28,6 +28,9 @@ pub const STEP_US: i64 = 1000;
 /// State shared by the world and the simulated autopilot.
 pub struct Shared {
     pub roll_us: AtomicU16,
+    /// The bank iNav's ANGLE aims at for that roll, radians (`f64` bits): what
+    /// the physics flies toward.
+    pub bank_target_rad: AtomicU64,
     pub switch_auto: AtomicBool,
     pub state: Mutex<VehicleState>,
     /// Daemon time the first deflected roll was in use at the autopilot; `i64::MIN`
@@ -65,6 +68,7 @@ impl Shared {
     pub fn new(initial: VehicleState) -> Self {
         Self {
             roll_us: AtomicU16::new(1500),
+            bank_target_rad: AtomicU64::new(0f64.to_bits()),
             switch_auto: AtomicBool::new(false),
             state: Mutex::new(initial),
             first_roll_rx_us: AtomicI64::new(i64::MIN),
@@ -136,7 +140,8 @@ pub async fn run(
         tick.tick().await;
         t_us += STEP_US;
         let roll_us = shared.roll_us.load(Ordering::Relaxed);
-        quad.step(roll_us, STEP_US as f64 * 1e-6);
+        let target_rad = f64::from_bits(shared.bank_target_rad.load(Ordering::Relaxed));
+        quad.step(target_rad, STEP_US as f64 * 1e-6);
         let state = quad.state();
         let mut batch = Vec::new();
         camera.step(&state, t_us, &mut batch);

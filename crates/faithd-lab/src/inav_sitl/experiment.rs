@@ -115,8 +115,12 @@ pub struct Compared {
     pub spec: FlightSpec,
     pub inav: RollFigures,
     pub model: RollFigures,
-    /// The iNav flight's extra figures (speed at the start, RealFlight exchanges).
+    /// The iNav flight's extra figures (speed at the start, MSP_RC's view of the
+    /// roll, the mixer before it, RealFlight exchanges).
     pub speed_at_start_m_s: f64,
+    pub msp_rc_ms: Option<f64>,
+    pub mix_before_roll: Option<f64>,
+    pub sitl_restarts: u32,
     pub exchanges: u64,
     pub late_exchanges: u64,
     /// The iNav flight's path, every 10 ms from the model's start point.
@@ -133,14 +137,17 @@ pub fn fly_all(
     let mut all = Vec::with_capacity(specs.len());
     for (i, spec) in specs.iter().enumerate() {
         let inav = flight::fly(spec, exe)
-            .map_err(|e| SitlError(format!("flight {} on iNav: {e}", i + 1)))?;
+            .map_err(|e| SitlError::Other(format!("flight {} on iNav: {e}", i + 1)))?;
         let model = closed_loop::fly(spec, &FlyOptions::default())
-            .map_err(|e| SitlError(format!("flight {} on the model: {e}", i + 1)))?;
+            .map_err(|e| SitlError::Other(format!("flight {} on the model: {e}", i + 1)))?;
         let compared = Compared {
             spec: spec.clone(),
             inav: RollFigures::of_sitl(&inav),
             model: RollFigures::of_model(&model),
             speed_at_start_m_s: inav.speed_at_start_m_s,
+            msp_rc_ms: inav.msp_rc_ms,
+            mix_before_roll: inav.mix_before_roll,
+            sitl_restarts: inav.sitl_restarts,
             exchanges: inav.exchanges,
             late_exchanges: inav.late_exchanges,
             path: inav.path,
@@ -225,6 +232,8 @@ pub struct Report {
     pub same_outcome: usize,
     pub late_exchanges: u64,
     pub exchanges: u64,
+    /// SITLs that ended by themselves while starting, and were started afresh.
+    pub sitl_restarts: u32,
 }
 
 pub fn report(flights: &[Compared], seed: u64) -> Report {
@@ -240,6 +249,7 @@ pub fn report(flights: &[Compared], seed: u64) -> Report {
             .count(),
         late_exchanges: flights.iter().map(|c| c.late_exchanges).sum(),
         exchanges: flights.iter().map(|c| c.exchanges).sum(),
+        sitl_restarts: flights.iter().map(|c| c.sitl_restarts).sum(),
     }
 }
 
@@ -303,8 +313,9 @@ impl Report {
             out.push_str(&format!("| {what} | {x} | {y} |\n"));
         }
         out.push_str(&format!(
-            "\n{} of {} flights came out the same on both; RealFlight: {} exchanges, {} late.\n",
-            self.same_outcome, a.runs, self.exchanges, self.late_exchanges
+            "\n{} of {} flights came out the same on both; RealFlight: {} exchanges, {} late; \
+             {} SITLs ended by themselves while starting and were started afresh.\n",
+            self.same_outcome, a.runs, self.exchanges, self.late_exchanges, self.sitl_restarts
         ));
         out
     }

@@ -45,17 +45,31 @@ const PILOT_CLI: &str = include_str!("../../../../tests/inav/pilot.cli");
 const FAITHD_CLI: &str = include_str!("../../../../hil/inav/faithd.cli");
 const QUAD_CLI: &str = include_str!("../../../../tests/inav/quad_rf.cli");
 
-/// RealFlight's address for SITL (its port is fixed at 18083 in iNav 9.1's
-/// realFlight.c, `--simport` notwithstanding): one flight at a time.
-pub const SIM_IP: Ipv4Addr = Ipv4Addr::new(127, 0, 0, 2);
+/// RealFlight's address for the next flight's SITL (its port is fixed at 18083 in
+/// iNav 9.1's realFlight.c, `--simport` notwithstanding), a fresh loopback address
+/// for every flight: iNav opens a connection per exchange, a thousand a second, the
+/// server closes each first and so keeps each in TIME_WAIT for a minute, and a new
+/// SITL calling the same address then met those (two flights' worth made the third
+/// wait for ever, "[SIM] Waiting for connection..."). 253 addresses in turn come
+/// back to the first after more than an hour of flights.
+pub fn next_sim_ip() -> Ipv4Addr {
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed) % 253;
+    Ipv4Addr::new(127, 0, 1, 2 + n as u8)
+}
 
 /// The vehicle takes off this far behind the point where the model's flight starts,
-/// so that it has reached its cruise speed there (at iNav's pitch, 2 m/s takes about
-/// a second and a metre and a half).
-pub const RUN_UP_M: f64 = 3.0;
+/// so that it has reached its cruise speed there (2 m/s takes the pilot about two
+/// seconds and three metres).
+pub const RUN_UP_M: f64 = 4.0;
 
 /// Cruise height, metres (the model flies at 1 m).
 pub const HEIGHT_M: f64 = 1.0;
+
+/// The roll is in effect at iNav's mixer once its left and right motors' commands
+/// (0..1 each, summed per side) differ this much the roll's way: in the steady
+/// cruise before a roll they are equal (the simulation has no wind).
+pub const ROLL_MIX_IN_EFFECT: f64 = 0.05;
 
 /// What iNav's SITL did in one flight.
 #[derive(Clone, Debug, Serialize)]
@@ -68,9 +82,16 @@ pub struct SitlOutcome {
     pub min_clearance_m: f64,
     /// Flight time of the roll decision, seconds (from the model's start point).
     pub decision_s: Option<f64>,
-    /// From the newest event of the deciding window to the first MSP_RC in which iNav
-    /// used the roll, milliseconds (iNav's port is read every 10-20 ms).
+    /// From the newest event of the deciding window to the roll at iNav's mixer
+    /// (its left and right motors [`ROLL_MIX_IN_EFFECT`] apart the roll's way),
+    /// milliseconds.
     pub in_effect_ms: Option<f64>,
+    /// The same to the first MSP_RC in which iNav reported the roll (its port is
+    /// read every 10-20 ms, so this lags the mixer by up to 20 ms).
+    pub msp_rc_ms: Option<f64>,
+    /// The largest left-right motor difference in the second before the roll: how
+    /// far below [`ROLL_MIX_IN_EFFECT`] the steady cruise stays.
+    pub mix_before_roll: Option<f64>,
     /// From the same event to 5 degrees of bank the roll's way, milliseconds.
     pub bank_5_deg_ms: Option<f64>,
     /// From the same event to 90 % of the roll's peak bank, milliseconds.
@@ -83,6 +104,8 @@ pub struct SitlOutcome {
     pub max_tilt_deg: f64,
     /// The speed along the course when the flight started, m/s.
     pub speed_at_start_m_s: f64,
+    /// Fresh SITLs started because one ended by itself while starting.
+    pub sitl_restarts: u32,
     /// RealFlight exchanges answered and answered late (iNav's loop stalled).
     pub exchanges: u64,
     pub late_exchanges: u64,
@@ -147,32 +170,28 @@ impl Course {
 /// real time, whatever camera the spec names).
 pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
     let course = Course::of(spec);
-    let world = World::new(QuadX::on_ground(
-        QuadXConfig::default(),
-        course.takeoff_m(spec),
-        spec.heading_deg.to_radians(),
-    ));
-    let server = Server::start(IpAddr::V4(SIM_IP), world)
-        .map_err(|e| SitlError(format!("cannot bind RealFlight's {SIM_IP}:18083: {e}")))?;
+    let mut restarts = 0;
+    let (server, sitl) = loop {
+        match boot(spec, &course, exe) {
+            Ok(booted) => break booted,
+            Err(SitlError::Crashed { status, log }) if restarts < MAX_RESTARTS => {
+                restarts += 1;
+                tracing::warn!(
+                    %status,
+                    restarts,
+                    "SITL ended by itself while it started, before anything flew; starting a fresh one. Its log:\n{log}"
+                );
+            }
+            Err(e) => return Err(e),
+        }
+    };
     let world = server.world.clone();
-    let sitl = Sitl::start(
-        exe,
-        &[
-            "--sim=rf".into(),
-            format!("--simip={SIM_IP}"),
-            "--chanmap=M01-01,M02-02,M03-03,M04-04".into(),
-        ],
-    )?;
-    let mut lines = process::script_lines(PILOT_CLI);
-    lines.extend(process::script_lines(FAITHD_CLI));
-    lines.extend(process::script_lines(QUAD_CLI));
-    sitl.cli_save(&lines)?;
     let radio = Radio::start(&sitl)?;
     let monitor = Monitor::start(&sitl)?;
     let daemon = Daemon::start(spec, &sitl, world.clone())?;
     monitor::arm(&radio, &monitor, &sitl)?;
     if !monitor.latest().is_some_and(|s| s.mode(MODE_ANGLE)) {
-        return Err(SitlError(
+        return Err(SitlError::Other(
             "armed without ANGLE: tests/inav/pilot.cli puts ANGLE on the ARM switch".into(),
         ));
     }
@@ -180,13 +199,47 @@ pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
     radio.set(CH_THROTTLE, 1000);
     radio.set(CH_SWITCH, MANUAL_US);
     let observations = daemon.stop()?;
-    let flown = flown.map_err(|why| SitlError(format!("{why}; SITL log:\n{}", sitl.log())))?;
-    Ok(measure(spec, flown, &observations, &monitor, &world))
+    let flown =
+        flown.map_err(|why| SitlError::Other(format!("{why}; SITL log:\n{}", sitl.log())))?;
+    let mut outcome = measure(spec, flown, &observations, &monitor, &world);
+    outcome.sitl_restarts = restarts;
+    Ok(outcome)
+}
+
+/// Fresh SITLs a flight may start after one that ended by itself while starting.
+const MAX_RESTARTS: u32 = 3;
+
+/// The quad-X on the ground at the take-off point, its RealFlight server, and SITL
+/// flying it with the set-up saved (iNav reboots to take it).
+fn boot(spec: &FlightSpec, course: &Course, exe: &Path) -> Result<(Server, Sitl), SitlError> {
+    let world = World::new(QuadX::on_ground(
+        QuadXConfig::default(),
+        course.takeoff_m(spec),
+        spec.heading_deg.to_radians(),
+    ));
+    let sim_ip = next_sim_ip();
+    let server = Server::start(IpAddr::V4(sim_ip), world)
+        .map_err(|e| SitlError::Other(format!("cannot bind RealFlight's {sim_ip}:18083: {e}")))?;
+    let sitl = Sitl::start(
+        exe,
+        &[
+            "--sim=rf".into(),
+            format!("--simip={sim_ip}"),
+            "--chanmap=M01-01,M02-02,M03-03,M04-04".into(),
+        ],
+    )?;
+    let mut lines = process::script_lines(PILOT_CLI);
+    lines.extend(process::script_lines(FAITHD_CLI));
+    lines.extend(process::script_lines(QUAD_CLI));
+    sitl.cli_save(&lines)?;
+    Ok((server, sitl))
 }
 
 /// The flight as the pilot flew it.
 struct Flown {
     clock: DaemonClock,
+    /// One moment on both clocks: the wall's and the daemon's.
+    base: (Instant, i64),
     /// Daemon time of the flight's start (the model's start point reached).
     start_us: i64,
     path: Vec<(i64, SitlPathPoint)>,
@@ -194,6 +247,25 @@ struct Flown {
     min_clearance_m: f64,
     max_tilt_deg: f64,
     speed_at_start_m_s: f64,
+}
+
+impl Flown {
+    fn instant_of(&self, t_us: i64) -> Instant {
+        let (at, base_us) = self.base;
+        if t_us >= base_us {
+            at + Duration::from_micros((t_us - base_us) as u64)
+        } else {
+            at - Duration::from_micros((base_us - t_us) as u64)
+        }
+    }
+
+    fn daemon_us(&self, at: Instant) -> i64 {
+        let (base, base_us) = self.base;
+        match at.checked_duration_since(base) {
+            Some(d) => base_us + d.as_micros() as i64,
+            None => base_us - base.duration_since(at).as_micros() as i64,
+        }
+    }
 }
 
 /// The scripted pilot flies the course: take-off and hover, then at the pole with
@@ -212,6 +284,7 @@ fn fly_course(
     let started = Instant::now();
     let mut flown = Flown {
         clock: *clock,
+        base: (Instant::now(), clock.now_us()),
         start_us: i64::MAX,
         path: Vec::new(),
         collided: false,
@@ -314,12 +387,15 @@ fn measure(
         min_clearance_m: flown.min_clearance_m,
         decision_s: None,
         in_effect_ms: None,
+        msp_rc_ms: None,
+        mix_before_roll: None,
         bank_5_deg_ms: None,
         bank_90_ms: None,
         peak_bank_deg: None,
         height_change_m: None,
         max_tilt_deg: flown.max_tilt_deg,
         speed_at_start_m_s: flown.speed_at_start_m_s,
+        sitl_restarts: 0,
         exchanges: world.counters.exchanges.load(Ordering::Relaxed),
         late_exchanges: world.counters.late_exchanges.load(Ordering::Relaxed),
         path: flown.path.iter().map(|(_, p)| *p).collect(),
@@ -338,11 +414,25 @@ fn measure(
     let ms_after_event = |t_us: i64| (t_us - event_us) as f64 / 1e3;
     // iNav's samples are stamped in Unix time; the daemon's clock counts from its start.
     let to_daemon = |unix_us: i64| unix_us - flown.clock.start_unix_us();
-    outcome.in_effect_ms = monitor
+    outcome.msp_rc_ms = monitor
         .between(flown.clock.unix_us(started_us) as i64, i64::MAX)
         .iter()
         .find(|s| (f64::from(s.roll()) - 1500.0) * sign > 100.0)
         .map(|s| ms_after_event(to_daemon(s.t_us)));
+    let started_at = flown.instant_of(started_us);
+    let mix = world.roll_mix.lock().unwrap_or_else(|e| e.into_inner());
+    outcome.mix_before_roll = Some(
+        mix.iter()
+            .filter(|(at, _)| {
+                *at < started_at && started_at.duration_since(*at).as_secs_f64() < 1.0
+            })
+            .map(|(_, m)| m.abs())
+            .fold(0.0, f64::max),
+    );
+    outcome.in_effect_ms = mix
+        .iter()
+        .find(|(at, mix)| *at >= started_at && mix * sign > ROLL_MIX_IN_EFFECT)
+        .map(|(at, _)| ms_after_event(flown.daemon_us(*at)));
     let roll: Vec<&(i64, SitlPathPoint)> = flown
         .path
         .iter()
@@ -386,7 +476,8 @@ impl Daemon {
     fn start(spec: &FlightSpec, sitl: &Sitl, world: Arc<World>) -> Result<Self, SitlError> {
         let mut config = FaithdConfig::default();
         let address = |uart| {
-            Address::parse(&sitl.endpoint(uart)).map_err(|e| SitlError(format!("UART{uart}: {e}")))
+            Address::parse(&sitl.endpoint(uart))
+                .map_err(|e| SitlError::Other(format!("UART{uart}: {e}")))
         };
         config.mavlink.endpoint = address(UART_MAVLINK)?;
         config.mavlink.reconnect_min_us = 50_000;
@@ -396,7 +487,7 @@ impl Daemon {
             ..MspSink::default()
         });
         config.record.enabled = false;
-        if let Some(dir) = std::env::var_os("FAITHD_DEBUG_RECORD") {
+        if let Some(dir) = std::env::var_os("FAITHD_SITL_RECORD") {
             config.record.enabled = true;
             config.record.dir = dir.into();
         }
@@ -422,7 +513,7 @@ impl Daemon {
                 .enable_all()
                 .on_thread_start(move || std::mem::forget(faults.enter()))
                 .build()
-                .map_err(|e| SitlError(format!("the daemon's runtime: {e}")))?
+                .map_err(|e| SitlError::Other(format!("the daemon's runtime: {e}")))?
         };
         let endpoint = config.mavlink.port();
         let msp_endpoint = config.command.msp_port();
@@ -470,8 +561,8 @@ impl Daemon {
             Ok(Ended::Requested(_)) => Ok(std::mem::take(
                 &mut *self.observations.lock().expect("observations lock"),
             )),
-            Ok(other) => Err(SitlError(format!("faithd ended on {other:?}"))),
-            Err(_) => Err(SitlError("faithd's thread panicked".into())),
+            Ok(other) => Err(SitlError::Other(format!("faithd ended on {other:?}"))),
+            Err(_) => Err(SitlError::Other("faithd's thread panicked".into())),
         }
     }
 }

@@ -6,6 +6,7 @@
 
 pub mod experiment; // many flights, and the model's figures on the same flights
 pub mod flight; // one flight: SITL, physics, pilot, faithd and the line camera
+pub mod measured; // what iNav did in the experiment, and the bounds the model is held to
 pub mod monitor; // what iNav uses, read back over MSP; arming
 pub mod pilot; // the scripted pilot's hands
 pub mod process; // the SITL process and its CLI

@@ -113,10 +113,10 @@ pub struct Monitor {
 impl Monitor {
     pub fn start(sitl: &Sitl) -> Result<Self, SitlError> {
         let mut client = MspClient::connect(sitl.port(UART_MONITOR))
-            .map_err(|e| SitlError(format!("the monitor's UART{UART_MONITOR}: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("the monitor's UART{UART_MONITOR}: {e}")))?;
         let box_ids = client
             .request(MSP_BOXIDS, &[])
-            .map_err(|e| SitlError(format!("MSP_BOXIDS: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("MSP_BOXIDS: {e}")))?;
         let samples = Arc::new(Mutex::new(Vec::new()));
         let stop = Arc::new(AtomicBool::new(false));
         let thread = {
@@ -214,7 +214,7 @@ pub fn arm(radio: &Radio, monitor: &Monitor, sitl: &Sitl) -> Result<(), SitlErro
         s.arming_flags & ARMING_BLOCKERS & !ARMING_DISABLED_ARM_SWITCH == 0
     });
     if ready.is_none() {
-        return Err(SitlError(format!(
+        return Err(SitlError::Other(format!(
             "SITL never became armable: flags {:#x}; SITL log:\n{}",
             monitor.latest().map_or(0, |s| s.arming_flags),
             sitl.log()
@@ -231,7 +231,7 @@ pub fn arm(radio: &Radio, monitor: &Monitor, sitl: &Sitl) -> Result<(), SitlErro
             return Ok(());
         }
     }
-    Err(SitlError(format!(
+    Err(SitlError::Other(format!(
         "SITL did not arm: flags {:#x}",
         monitor.latest().map_or(0, |s| s.arming_flags)
     )))

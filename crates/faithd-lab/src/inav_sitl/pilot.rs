@@ -7,7 +7,8 @@
 
 use super::flight::{Course, HEIGHT_M};
 use crate::closed_loop::FlightSpec;
-use faithd_sim::world::quad_x::QuadX;
+use faithd_inav::msp::{Setup, rc_command};
+use faithd_sim::world::quad_x::{G_M_S2, QuadX, QuadXConfig};
 
 /// Stick update period, seconds.
 const DT_S: f64 = 0.01;
@@ -39,6 +40,10 @@ pub struct Pilot {
     steady_since_us: Option<i64>,
     /// Daemon time the vehicle reached the model's start point at speed.
     pub start_us: Option<i64>,
+    /// Where the pitch stick sits at the cruise speed: a pilot knows roughly how
+    /// far forward to hold it (the nose down enough that the thrust's push matches
+    /// the drag, through iNav's expo).
+    cruise_stick_us: f64,
 }
 
 impl Pilot {
@@ -51,6 +56,7 @@ impl Pilot {
             speed_integral: 0.0,
             steady_since_us: None,
             start_us: None,
+            cruise_stick_us: cruise_stick_us(spec.speed_m_s),
         }
     }
 
@@ -115,9 +121,13 @@ impl Pilot {
     fn pitch(&mut self, quad: &QuadX) -> u16 {
         let speed_m_s = quad.velocity_m_s.dot(&self.course.forward);
         let error = self.spec.speed_m_s - speed_m_s;
-        self.speed_integral = (self.speed_integral + error * DT_S).clamp(-3.0, 3.0);
-        let pitch = 1500.0 + 120.0 * error + 60.0 * self.speed_integral;
-        pitch.clamp(1300.0, 1700.0) as u16
+        // The hand settles the speed it holds only once near it (no wind-up while
+        // it accelerates from the hover).
+        if error.abs() < 0.3 {
+            self.speed_integral = (self.speed_integral + error * DT_S).clamp(-3.0, 3.0);
+        }
+        let pitch = 1500.0 + self.cruise_stick_us + 100.0 * error + 80.0 * self.speed_integral;
+        pitch.clamp(1250.0, 1750.0) as u16
     }
 
     /// The course line by roll (right stick moves right).
@@ -127,4 +137,19 @@ impl Pilot {
         let roll = 1500.0 - 100.0 * off_m - 120.0 * drift_m_s;
         roll.clamp(1400.0, 1600.0) as u16
     }
+}
+
+/// The pitch stick (us from centre) whose angle in iNav's ANGLE mode holds
+/// `speed_m_s` against the quad-X's drag, through iNav's stick chain
+/// (`faithd_inav::msp::rc_command`; the pitch axis has the roll's defaults).
+fn cruise_stick_us(speed_m_s: f64) -> f64 {
+    let quad = QuadXConfig::default();
+    let drag_m_s2 = quad.rotor_drag_per_s * speed_m_s
+        + quad.drag_n_per_m2_s2 * speed_m_s * speed_m_s / quad.mass_kg;
+    let pitch_deg = (drag_m_s2 / G_M_S2).atan().to_degrees();
+    let setup = Setup::default();
+    let max_deg = f64::from(setup.max_angle_inclination_rll_ddeg) / 10.0;
+    (0..=500u16)
+        .find(|d| rc_command(&setup, 1500 + d) / 500.0 * max_deg >= pitch_deg)
+        .map_or(500.0, f64::from)
 }

@@ -26,8 +26,15 @@ pub const UART_RADIO: u16 = 5;
 
 /// What went wrong with SITL, with its own output when it helps.
 #[derive(Debug, thiserror::Error)]
-#[error("{0}")]
-pub struct SitlError(pub String);
+pub enum SitlError {
+    /// The SITL process ended on its own before it answered: iNav 9.1's SITL with
+    /// `--sim=rf` sometimes dies of SIGSEGV while it starts (at its first boot or
+    /// at the reboot after `save`), before anything flies. A fresh one may start.
+    #[error("SITL ended by itself ({status}) before it answered; its log:\n{log}")]
+    Crashed { status: String, log: String },
+    #[error("{0}")]
+    Other(String),
+}
 
 /// Eight consecutive free TCP ports (SITL's UARTs), distinct for every SITL this
 /// process starts, and all below the kernel's ephemeral range: SITL binds a UART's
@@ -57,7 +64,7 @@ fn free_base_port() -> u16 {
 
 /// One running iNav SITL; killed on drop.
 pub struct Sitl {
-    child: Child,
+    child: Mutex<Child>,
     pub base_port: u16,
     dir: tempfile::TempDir,
     /// UARTs (1-based) the saved set-up gives a function: each must listen again
@@ -72,13 +79,13 @@ impl Sitl {
         let dir = tempfile::Builder::new()
             .prefix("faithd-sitl-")
             .tempdir()
-            .map_err(|e| SitlError(format!("a scratch directory for SITL: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("a scratch directory for SITL: {e}")))?;
         let base_port = free_base_port();
         let log = std::fs::File::create(dir.path().join("sitl.log"))
-            .map_err(|e| SitlError(format!("SITL's log file: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("SITL's log file: {e}")))?;
         let log_err = log
             .try_clone()
-            .map_err(|e| SitlError(format!("SITL's log file: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("SITL's log file: {e}")))?;
         let mut command = Command::new(exe);
         // SITL's TCP "UARTs" write with send() and no MSG_NOSIGNAL: a client that
         // hangs up while iNav still answers it kills SITL with SIGPIPE, which a real
@@ -108,9 +115,9 @@ impl Sitl {
             .stdout(log)
             .stderr(log_err)
             .spawn()
-            .map_err(|e| SitlError(format!("cannot start SITL {}: {e}", exe.display())))?;
+            .map_err(|e| SitlError::Other(format!("cannot start SITL {}: {e}", exe.display())))?;
         let sitl = Sitl {
-            child,
+            child: Mutex::new(child),
             base_port,
             dir,
             uarts: Mutex::new([UART_CLI, UART_MONITOR].into()),
@@ -139,7 +146,19 @@ impl Sitl {
     }
 
     pub fn pid(&self) -> u32 {
-        self.child.id()
+        self.child.lock().expect("child lock").id()
+    }
+
+    /// How SITL ended, if it has.
+    fn ended(&self) -> Option<String> {
+        let status = self.child.lock().expect("child lock").try_wait().ok()??;
+        Some(
+            match std::os::unix::process::ExitStatusExt::signal(&status) {
+                Some(11) => "SIGSEGV".to_string(),
+                Some(signal) => format!("signal {signal}"),
+                None => status.to_string(),
+            },
+        )
     }
 
     fn wait_for_msp(&self, timeout: Duration) -> Result<(), SitlError> {
@@ -150,13 +169,44 @@ impl Sitl {
             {
                 return Ok(());
             }
+            if let Some(status) = self.ended() {
+                return Err(SitlError::Crashed {
+                    status,
+                    log: self.log(),
+                });
+            }
             std::thread::sleep(Duration::from_millis(100));
         }
-        Err(SitlError(format!(
-            "SITL's MSP port (UART1, TCP {}) did not answer in {timeout:?}; SITL log:\n{}",
+        Err(SitlError::Other(format!(
+            "SITL's MSP port (UART1, TCP {}) did not answer in {timeout:?}; SITL log:\n{}\n{}",
             self.port(UART_CLI),
-            self.log()
+            self.log(),
+            self.process_state()
         )))
+    }
+
+    /// The SITL process's state, its sockets and, where gdb is installed, its
+    /// threads' stacks: what a stuck SITL was waiting for.
+    fn process_state(&self) -> String {
+        let pid = self.pid().to_string();
+        let run = |program: &str, args: &[&str]| {
+            Command::new(program)
+                .args(args)
+                .output()
+                .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+                .unwrap_or_default()
+        };
+        format!(
+            "process {pid}: {}\nits sockets:\n{}\nits threads:\n{}",
+            std::fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default(),
+            run("ss", &["-tanp"])
+                .lines()
+                .filter(|l| l.contains(&format!("pid={pid},")) || l.contains(":18083"))
+                .take(40)
+                .collect::<Vec<_>>()
+                .join("\n"),
+            run("gdb", &["-p", &pid, "-batch", "-ex", "thread apply all bt"])
+        )
     }
 
     /// Runs CLI lines on UART1 and returns what the CLI printed. A connection that
@@ -171,7 +221,7 @@ impl Sitl {
             std::thread::sleep(Duration::from_millis(300));
             self.wait_for_msp(Duration::from_secs(10))?;
         }
-        Err(SitlError(format!(
+        Err(SitlError::Other(format!(
             "SITL's CLI kept failing: {last:?}; SITL log:\n{}",
             self.log()
         )))
@@ -225,13 +275,13 @@ impl Sitl {
         let out = self.cli(&all)?;
         for bad in ["Invalid", "ERROR", "Unknown command", "Parse error"] {
             if out.contains(bad) {
-                return Err(SitlError(format!(
+                return Err(SitlError::Other(format!(
                     "iNav refused a CLI line ({bad}):\n{out}"
                 )));
             }
         }
         if !out.contains("Rebooting") {
-            return Err(SitlError(format!("no reboot after save:\n{out}")));
+            return Err(SitlError::Other(format!("no reboot after save:\n{out}")));
         }
         // The old process keeps its sockets through its 1 s reboot delay.
         std::thread::sleep(Duration::from_millis(1300));
@@ -241,7 +291,7 @@ impl Sitl {
         for uart in uarts {
             while TcpStream::connect(("127.0.0.1", self.port(uart))).is_err() {
                 if Instant::now() > deadline {
-                    return Err(SitlError(format!(
+                    return Err(SitlError::Other(format!(
                         "UART{uart} never listened after the save; SITL log:\n{}",
                         self.log()
                     )));
@@ -255,8 +305,9 @@ impl Sitl {
 
 impl Drop for Sitl {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        let child = self.child.get_mut().unwrap_or_else(|e| e.into_inner());
+        let _ = child.kill();
+        let _ = child.wait();
     }
 }
 

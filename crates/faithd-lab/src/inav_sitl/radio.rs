@@ -68,7 +68,7 @@ impl Radio {
             match TcpStream::connect(("127.0.0.1", sitl.port(UART_RADIO))) {
                 Ok(s) => break s,
                 Err(e) if Instant::now() > deadline => {
-                    return Err(SitlError(format!(
+                    return Err(SitlError::Other(format!(
                         "the receiver's UART{UART_RADIO} never listened: {e}"
                     )));
                 }
@@ -77,7 +77,7 @@ impl Radio {
         };
         stream
             .set_nodelay(true)
-            .map_err(|e| SitlError(format!("radio socket: {e}")))?;
+            .map_err(|e| SitlError::Other(format!("radio socket: {e}")))?;
         let thread = {
             let (channels, on, stop, sent) =
                 (channels.clone(), on.clone(), stop.clone(), sent.clone());

@@ -50,6 +50,10 @@ pub struct World {
     pub motors: Mutex<[f64; 4]>,
     pub extras: Mutex<Extras>,
     pub counters: Counters,
+    /// iNav's roll at its mixer, every exchange: when it came, and the left motors'
+    /// command minus the right ones' (positive rolls right). What iNav did with a
+    /// roll stick shows here first, a millisecond after its PID loop ran.
+    pub roll_mix: Mutex<Vec<(Instant, f64)>>,
     /// The wall-clock instant of the physics' time zero.
     pub origin: Instant,
 }
@@ -61,6 +65,7 @@ impl World {
             motors: Mutex::new([0.0; 4]),
             extras: Mutex::new(Extras::default()),
             counters: Counters::default(),
+            roll_mix: Mutex::new(Vec::new()),
             origin: Instant::now(),
         })
     }
@@ -135,7 +140,15 @@ fn answer(stream: TcpStream, world: &World) -> std::io::Result<()> {
             let extras = *world.extras.lock().unwrap_or_else(|e| e.into_inner());
             wire::exchange_reply(&quad, &extras)
         }
-        Ok(call) => wire::ack_reply(&call),
+        Ok(call) => {
+            tracing::debug!(?call, "realflight: call");
+            wire::ack_reply(&call)
+        }
+        Err(wire::WireError::Truncated(0)) => {
+            // Connected and gone without a byte: a SITL killed between flights.
+            tracing::debug!("realflight: a connection closed before its request");
+            return Ok(());
+        }
         Err(e) => {
             world.counters.bad_requests.fetch_add(1, Ordering::Relaxed);
             tracing::warn!("realflight: a request could not be read: {e}");
@@ -150,6 +163,13 @@ fn answer(stream: TcpStream, world: &World) -> std::io::Result<()> {
 /// Applies iNav's motors, steps the physics and waits for the wall clock to reach it.
 fn exchange(world: &World, motors: [f64; 4]) -> QuadX {
     *world.motors.lock().unwrap_or_else(|e| e.into_inner()) = motors;
+    // iNav's Quad X: motors 3 and 4 on the left, 1 and 2 on the right.
+    let left_minus_right = motors[2] + motors[3] - motors[0] - motors[1];
+    world
+        .roll_mix
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((Instant::now(), left_minus_right));
     let elapsed = world.origin.elapsed();
     let mut quad = world.quad.lock().unwrap_or_else(|e| e.into_inner());
     let behind_s = elapsed.as_secs_f64() - quad.t_s;

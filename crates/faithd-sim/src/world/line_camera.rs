@@ -447,7 +447,7 @@ mod tests {
         let mut events = Vec::new();
         lc.advance(&q.state(), 0, &mut events);
         for step in 1..=500 {
-            q.step(1500, 0.001);
+            q.step(0.0, 0.001);
             lc.advance(&q.state(), step * 1000, &mut events);
         }
         assert!(events.windows(2).all(|w| w[0].t_us <= w[1].t_us));
