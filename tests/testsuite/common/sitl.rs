@@ -1,5 +1,6 @@
 //! iNav's own firmware in the tests: the lab's SITL harness
-//! (`faithd::inav_sitl`: the SITL process set up from the committed CLI scripts, the
+//! (`faithd_lab::inav_sitl`, a dev-dependency so that the flight build's tests have
+//! it too: the SITL process set up from the committed CLI scripts, the
 //! pilot's radio on IBUS, a monitor reading back over MSP what iNav really uses),
 //! with what a test adds: a CPU slot (iNav's serial task keeps the board's 10 ms
 //! only on an idle core), panics instead of errors, and the skip without SITL.
@@ -12,14 +13,14 @@
 use std::ops::Deref;
 use std::path::PathBuf;
 
-pub use faithd::inav_sitl::monitor::{
+pub use faithd_lab::inav_sitl::monitor::{
     MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE, MspClient, Sample, unix_us,
 };
-pub use faithd::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MSP_FAITHD};
-pub use faithd::inav_sitl::radio::{
+pub use faithd_lab::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MSP_FAITHD};
+pub use faithd_lab::inav_sitl::radio::{
     AUTO_US, CH_ROLL, CH_SWITCH, CH_THROTTLE, MANUAL_US, PILOT_CHANNELS, PILOT_ROLL_US,
 };
-use faithd::inav_sitl::{monitor, process, radio};
+use faithd_lab::inav_sitl::{monitor, process, radio};
 
 /// The committed set-up: the pilot's vehicle, then faithd's part (hil/inav/faithd.cli).
 pub const PILOT_CLI: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/inav/pilot.cli");
