@@ -19,13 +19,7 @@ use faithd::supervise::{self, Faults};
 
 /// A multi-threaded runtime as `faithd run` builds it: its workers are this run's.
 fn runtime_of(faults: &Faults) -> tokio::runtime::Runtime {
-    let faults = faults.clone();
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .on_thread_start(move || std::mem::forget(faults.enter()))
-        .build()
-        .unwrap()
+    faults.runtime().unwrap()
 }
 
 /// Sets its flag when dropped: when the thread that owns it has ended.

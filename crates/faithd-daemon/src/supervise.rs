@@ -128,6 +128,18 @@ impl Faults {
         }
     }
 
+    /// The multi-threaded runtime a run's tasks go on (two workers, as `faithd run`
+    /// has them): every worker enters this handle, so a panic in a task is this
+    /// run's fault.
+    pub fn runtime(&self) -> std::io::Result<tokio::runtime::Runtime> {
+        let faults = self.clone();
+        tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .on_thread_start(move || std::mem::forget(faults.enter()))
+            .build()
+    }
+
     /// Ends the run with a fault (the first one reported wins).
     pub fn report(&self, why: Fault) {
         self.first.send_if_modified(|f| {

@@ -96,15 +96,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     // This run's faults: a panic on a runtime worker (a task), on the camera or the
     // pipeline thread, or a refusal of the camera, ends this run and releases the roll.
     let faults = supervise::Faults::new();
-    let runtime = {
-        let faults = faults.clone();
-        tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .enable_all()
-            .on_thread_start(move || std::mem::forget(faults.enter()))
-            .build()
-            .map_err(DaemonError::Runtime)?
-    };
+    let runtime = faults.runtime().map_err(DaemonError::Runtime)?;
     let clock = DaemonClock::start();
     let camera = config.pipeline.camera;
     let source: SourceFn = match config.source.clone() {

@@ -512,15 +512,9 @@ impl Daemon {
             Box::new(move |o| observations.lock().expect("observations lock").push(o))
         };
         let faults = faithd_daemon::supervise::Faults::new();
-        let runtime = {
-            let faults = faults.clone();
-            tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(2)
-                .enable_all()
-                .on_thread_start(move || std::mem::forget(faults.enter()))
-                .build()
-                .map_err(|e| SitlError::Other(format!("the daemon's runtime: {e}")))?
-        };
+        let runtime = faults
+            .runtime()
+            .map_err(|e| SitlError::Other(format!("the daemon's runtime: {e}")))?;
         let endpoint = config.mavlink.port();
         let msp_endpoint = config.command.msp_port();
         let hooks = Hooks {
