@@ -8,8 +8,9 @@
 //! Everything runs on the wall clock: iNav keeps its own, the physics server holds
 //! each answer until the wall clock reaches the physics (so iNav's 1 kHz loop is
 //! real time), and the line camera costs little enough to keep up on two cores.
-//! What is measured is what iNav did: the roll channel it used (MSP_RC on its own
-//! port) and the bank the vehicle reached under its controller.
+//! What is measured is what iNav did: the roll at its mixer (its motors, as the
+//! physics server saw them), the roll channel it reported (MSP_RC on its own port)
+//! and the bank the vehicle reached under its controller.
 
 use std::net::{IpAddr, Ipv4Addr};
 use std::path::Path;
@@ -86,7 +87,7 @@ pub struct SitlOutcome {
     /// milliseconds.
     pub in_effect_ms: Option<f64>,
     /// The same to the first MSP_RC in which iNav reported the roll (its port is
-    /// read every 10-20 ms, so this lags the mixer by up to 20 ms).
+    /// read every 10-20 ms, each sample stamped when it was asked for).
     pub msp_rc_ms: Option<f64>,
     /// The largest left-right motor difference in the second before the roll: how
     /// far below [`ROLL_MIX_IN_EFFECT`] the steady cruise stays.
