@@ -211,11 +211,6 @@ fn the_model_rolls_as_inavs_own_controller_did() {
         .map(|s| RollFigures::of_model(&fly(s, &FlyOptions::default()).unwrap()))
         .collect();
     assert_eq!(rolls.len(), 3);
-    let p50 = |f: fn(&RollFigures) -> f64| {
-        let mut v: Vec<f64> = rolls.iter().map(f).collect();
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
     for r in &rolls {
         assert!(r.rolled && !r.collided, "{r:?}");
         let peak = r.peak_bank_deg.unwrap();
@@ -224,17 +219,9 @@ fn the_model_rolls_as_inavs_own_controller_did() {
             "peak bank {peak}: {r:?}"
         );
     }
-    let in_effect = p50(|r| r.in_effect_ms.unwrap());
-    let to_5 = p50(|r| r.bank_5_deg_ms.unwrap() - r.in_effect_ms.unwrap());
-    let to_90 = p50(|r| r.bank_90_ms.unwrap() - r.in_effect_ms.unwrap());
-    println!(
-        "model: event -> roll in use {in_effect:.0} ms, then 5 deg after {to_5:.0} ms, 90 % after \
-         {to_90:.0} ms (iNav: {:?}, {:?}, {:?})",
-        measured::EVENT_TO_MIXER_MS,
-        measured::MIXER_TO_5_DEG_MS,
-        measured::MIXER_TO_90_PERCENT_MS
-    );
-    assert!(measured::EVENT_TO_MIXER_MS.holds(in_effect), "{in_effect}");
-    assert!(measured::MIXER_TO_5_DEG_MS.holds(to_5), "{to_5}");
-    assert!(measured::MIXER_TO_90_PERCENT_MS.holds(to_90), "{to_90}");
+    let timings = measured::RollTimings::of(&rolls);
+    println!("model: {timings:?}");
+    if let Err(why) = timings.check() {
+        panic!("model strays from what iNav did: {why}");
+    }
 }

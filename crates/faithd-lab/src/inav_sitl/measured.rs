@@ -53,3 +53,48 @@ pub const EVENT_TO_MIXER_MS: Bound = Bound {
     inav: 40.0,
     tolerance: 20.0,
 };
+
+/// The medians of some rolls' timings, as the bounds above read them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RollTimings {
+    pub event_to_mixer_ms: f64,
+    pub mixer_to_5_deg_ms: f64,
+    pub mixer_to_90_percent_ms: f64,
+}
+
+impl RollTimings {
+    /// From rolls that each reached 90 % of their peak (iNav's, or the model's with
+    /// its roll in use for the mixer).
+    pub fn of(rolls: &[super::experiment::RollFigures]) -> Self {
+        let p50 = |f: fn(&super::experiment::RollFigures) -> Option<f64>| {
+            super::experiment::Spread::of(rolls.iter().filter_map(f)).p50
+        };
+        Self {
+            event_to_mixer_ms: p50(|r| r.in_effect_ms),
+            mixer_to_5_deg_ms: p50(|r| Some(r.bank_5_deg_ms? - r.in_effect_ms?)),
+            mixer_to_90_percent_ms: p50(|r| Some(r.bank_90_ms? - r.in_effect_ms?)),
+        }
+    }
+
+    /// The first timing outside its bound, named.
+    pub fn check(&self) -> Result<(), String> {
+        for (name, bound, value) in [
+            ("event to mixer", EVENT_TO_MIXER_MS, self.event_to_mixer_ms),
+            (
+                "mixer to 5 degrees",
+                MIXER_TO_5_DEG_MS,
+                self.mixer_to_5_deg_ms,
+            ),
+            (
+                "mixer to 90 %",
+                MIXER_TO_90_PERCENT_MS,
+                self.mixer_to_90_percent_ms,
+            ),
+        ] {
+            if !bound.holds(value) {
+                return Err(format!("{name}: {value:.0} ms, iNav {bound:?}"));
+            }
+        }
+        Ok(())
+    }
+}
