@@ -1,5 +1,6 @@
 //! Pinhole intrinsics of the event camera, and the body-to-camera mounting.
 
+use crate::math;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -110,7 +111,7 @@ impl CameraIntrinsics {
     /// Angle in degrees between the viewing rays of two pixels; the paper's course error.
     pub fn angle_between_deg(&self, a_px: (f64, f64), b_px: (f64, f64)) -> f64 {
         let dot = self.ray(a_px.0, a_px.1).dot(&self.ray(b_px.0, b_px.1));
-        dot.clamp(-1.0, 1.0).acos().to_degrees()
+        math::acos(dot.clamp(-1.0, 1.0)).to_degrees()
     }
 
     /// True when the pixel coordinate lies on the sensor.
@@ -160,9 +161,9 @@ impl Mounting {
         // Rotation of the camera about the body y axis: the optical axis tilts up.
         #[rustfmt::skip]
         let tilt = Matrix3::new(
-            th.cos(), 0.0, -th.sin(),
+            math::cos(th), 0.0, -math::sin(th),
             0.0,      1.0,  0.0,
-            th.sin(), 0.0,  th.cos(),
+            math::sin(th), 0.0,  math::cos(th),
         );
         Self {
             body_to_camera: Self::forward().body_to_camera * tilt,

@@ -6,6 +6,7 @@ use faithd_core::decide::{Action, Reason, RollDirection};
 use faithd_core::event::Event;
 use faithd_core::flow::{FlowConfig, NormalFlow};
 use faithd_core::foe::FoeEstimate;
+use faithd_core::math;
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig, StageClock};
 use faithd_core::synth::{Layer, LoomingEdges, looming_edge_events};
 
@@ -73,7 +74,7 @@ fn flow_of_looming_edges_matches_the_closed_form() {
     let mut ttc_rel_errors = Vec::new();
     for v in &vectors {
         let (rx, ry) = (v.x_px - 110.0, v.y_px - 95.0);
-        if rx.hypot(ry) < 15.0 {
+        if math::hypot(rx, ry) < 15.0 {
             continue; // near the FOE the flow is a few px/s and poorly conditioned
         }
         checked += 1;
@@ -139,7 +140,7 @@ fn pole_ahead_is_avoided_toward_open_space() {
         .iter()
         .map(|(_, est)| {
             let (x, y) = est.point().unwrap();
-            (x - foe.0).hypot(y - foe.1)
+            math::hypot(x - foe.0, y - foe.1)
         })
         .collect();
     let mean_error = foe_errors.iter().sum::<f64>() / foe_errors.len() as f64;
@@ -313,7 +314,7 @@ fn same_input_same_output_bit_for_bit() {
             },
         ) = (x, y)
         {
-            assert!((x1 - x2).hypot(y1 - y2) < 10.0);
+            assert!(math::hypot(x1 - x2, y1 - y2) < 10.0);
         }
     }
 }

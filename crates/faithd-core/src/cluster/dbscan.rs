@@ -148,6 +148,7 @@ pub fn dbscan_brute_force(points: &[[f64; 3]], config: &DbscanConfig) -> Vec<Opt
 mod tests {
     use super::*;
     use crate::cluster::dense_grid::DenseGrid;
+    use crate::math;
     use proptest::prelude::*;
 
     fn blob(cx: f64, cy: f64, cz: f64, n: usize, spread: f64) -> Vec<[f64; 3]> {
@@ -156,9 +157,9 @@ mod tests {
                 let a = i as f64 * 2.399;
                 let r = spread * ((i % 7) as f64 / 7.0);
                 [
-                    cx + r * a.cos(),
-                    cy + r * a.sin(),
-                    cz + r * 0.5 * (a * 0.7).sin(),
+                    cx + r * math::cos(a),
+                    cy + r * math::sin(a),
+                    cz + r * 0.5 * math::sin(a * 0.7),
                 ]
             })
             .collect()

@@ -103,6 +103,7 @@ pub fn expansion<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math;
 
     /// Vertical-edge vectors of a pole between `x0` and `x1` at time to contact
     /// `tau_s`, FOE at column `foe_x`.
@@ -150,7 +151,10 @@ mod tests {
     fn a_slanted_edge_low_on_a_pole_expands_from_the_foe_column() {
         let (foe_x, foe_y, tau_s) = (128.0, 86.0, 0.84);
         let normal_deg: f64 = 155.0;
-        let (nx, ny) = (normal_deg.to_radians().cos(), normal_deg.to_radians().sin());
+        let (nx, ny) = (
+            math::cos(normal_deg.to_radians()),
+            math::sin(normal_deg.to_radians()),
+        );
         let vectors: Vec<FlowVector> = (0..30)
             .map(|k| {
                 let (x, y) = (112.0 + f64::from(k), 120.0 + 2.0 * f64::from(k));

@@ -8,6 +8,7 @@ use super::plane_fit::Plane;
 use super::surface::{ActiveEventSurface, NEVER_US};
 use super::vector::FlowVector;
 use crate::event::Event;
+use crate::math;
 
 /// Points of one neighbourhood: `(dx_px, dy_px, dt_us)` relative to the event.
 type Point = (f64, f64, f64);
@@ -238,7 +239,7 @@ impl Engine {
             stats.bad_fit += 1;
             return None;
         };
-        let speed = u.hypot(v);
+        let speed = math::hypot(u, v);
         if !(speed >= config.min_speed_px_s && speed <= config.max_speed_px_s) {
             stats.speed_rejected += 1;
             return None;

@@ -291,10 +291,14 @@ impl NormalFlow {
 mod tests {
     use super::*;
     use crate::event::Polarity;
+    use crate::math;
 
     /// A straight edge sweeping across the sensor at constant velocity.
     fn sweep(speed_px_s: f64, angle_deg: f64) -> Vec<Event> {
-        let (nx, ny) = (angle_deg.to_radians().cos(), angle_deg.to_radians().sin());
+        let (nx, ny) = (
+            math::cos(angle_deg.to_radians()),
+            math::sin(angle_deg.to_radians()),
+        );
         let mut events = Vec::new();
         for y in 0..180u16 {
             for x in 0..240u16 {
@@ -323,10 +327,10 @@ mod tests {
             }
             let (mu, mv) = (su / out.len() as f64, sv / out.len() as f64);
             let (eu, ev) = (
-                speed * angle.to_radians().cos(),
-                speed * angle.to_radians().sin(),
+                speed * math::cos(angle.to_radians()),
+                speed * math::sin(angle.to_radians()),
             );
-            let err = (mu - eu).hypot(mv - ev) / speed;
+            let err = math::hypot(mu - eu, mv - ev) / speed;
             assert!(
                 err < 0.05,
                 "speed {speed} angle {angle}: mean ({mu}, {mv}) vs ({eu}, {ev})"
@@ -367,7 +371,7 @@ mod tests {
         flow.process(&events, &mut out);
         // The slow edge's vectors: direction error against +x, tight or not.
         let slow: Vec<_> = out.iter().filter(|v| v.t_us >= 1_045_000).collect();
-        let angle_deg = |v: &&FlowVector| v.v_px_s.atan2(v.u_px_s).to_degrees().abs();
+        let angle_deg = |v: &&FlowVector| math::atan2(v.v_px_s, v.u_px_s).to_degrees().abs();
         let mean = |vs: Vec<f64>| vs.iter().sum::<f64>() / vs.len().max(1) as f64;
         let tight: Vec<f64> = slow.iter().filter(|v| v.tight).map(angle_deg).collect();
         let loose: Vec<f64> = slow.iter().filter(|v| !v.tight).map(angle_deg).collect();

@@ -1,5 +1,7 @@
 //! The flow vector: what every stage after the camera works on.
 
+use crate::math;
+
 /// A normal optic flow vector: image motion across a local edge, in pixels per second.
 ///
 /// Only the component normal to the edge is observable (the aperture problem), so
@@ -36,7 +38,7 @@ impl FlowVector {
     }
 
     pub fn speed_px_s(&self) -> f64 {
-        self.u_px_s.hypot(self.v_px_s)
+        math::hypot(self.u_px_s, self.v_px_s)
     }
 
     /// Unit direction of the flow, or `None` for a zero vector.

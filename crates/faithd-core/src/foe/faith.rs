@@ -29,6 +29,7 @@
 //!   explains the normal-flow speeds there. The `faithd bench foe` table of docs/performance.md
 //!   gives what each of these steps is worth on the simulator.
 
+use crate::math;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
@@ -883,15 +884,15 @@ impl Faith {
             return None;
         }
         let (xn, yn) = self.camera.normalise(x, y);
-        let r = xn.hypot(yn);
+        let r = math::hypot(xn, yn);
         if r <= 0.0 {
             return None;
         }
         let sensor_px = (self.camera.width_px, self.camera.height_px);
         self.speed_fit
             .load_patches(&self.unit, sensor_px, speed_config.patch_px);
-        let start_deg = r.atan().to_degrees();
-        let heading = yn.atan2(xn);
+        let start_deg = math::atan(r).to_degrees();
+        let heading = math::atan2(yn, xn);
         // Candidates along the estimate's ray and rays either side of it (an estimate
         // past the border is off in direction too), out to nearly 90 degrees. The
         // buffer is kept between windows: the steady state allocates nothing.
@@ -914,8 +915,9 @@ impl Faith {
     /// The pixel `deg` degrees off axis in the direction `phi` (radians) from the
     /// principal point.
     fn off_axis_px(&self, phi: f64, deg: f64) -> (f64, f64) {
-        let t = deg.to_radians().tan();
-        self.camera.to_pixels(phi.cos() * t, phi.sin() * t)
+        let t = math::tan(deg.to_radians());
+        self.camera
+            .to_pixels(math::cos(phi) * t, math::sin(phi) * t)
     }
 
     /// What the far field says of an estimate outside the view, from the scored
@@ -1014,7 +1016,7 @@ mod tests {
         for seed in 0..trials {
             let est = run(config, &spec, seed);
             let (x, y) = est.point().unwrap_or_else(|| panic!("no point: {est:?}"));
-            sum += (x - spec.foe_px.0).hypot(y - spec.foe_px.1);
+            sum += math::hypot(x - spec.foe_px.0, y - spec.foe_px.1);
         }
         sum / trials as f64
     }
@@ -1155,7 +1157,7 @@ mod tests {
                 } => {
                     assert_eq!(s, side, "{foe:?}");
                     let (tx, ty) = (foe.0 - cam.cx_px, foe.1 - cam.cy_px);
-                    let cos = (dx * tx + dy * ty) / tx.hypot(ty);
+                    let cos = (dx * tx + dy * ty) / math::hypot(tx, ty);
                     assert!(cos > 0.9, "direction off: {dx} {dy} for {foe:?}");
                 }
                 other => panic!("{foe:?}: expected unbounded, got {other:?}"),
@@ -1173,10 +1175,10 @@ mod tests {
         let (mut right, mut cases) = (0, 0);
         for off_axis_deg in [63.0f64, 70.0, 80.0] {
             for direction_deg in [0.0f64, 30.0, 90.0, 180.0, 270.0] {
-                let r = cam.fx_px * off_axis_deg.to_radians().tan();
+                let r = cam.fx_px * math::tan(off_axis_deg.to_radians());
                 let (c, s) = (
-                    direction_deg.to_radians().cos(),
-                    direction_deg.to_radians().sin(),
+                    math::cos(direction_deg.to_radians()),
+                    math::sin(direction_deg.to_radians()),
                 );
                 let foe = (cam.cx_px + r * c, cam.cy_px + r * s);
                 for seed in 0..6 {
@@ -1206,7 +1208,7 @@ mod tests {
         let spec = FlowFieldSpec::clean((-6.0, 90.0), 1000);
         let est = run(FaithConfig::default(), &spec, 4);
         let (x, y) = est.point().expect("a point");
-        assert!((x + 6.0).hypot(y - 90.0) < 20.0, "{x} {y}");
+        assert!(math::hypot(x + 6.0, y - 90.0) < 20.0, "{x} {y}");
     }
 
     #[test]

@@ -88,6 +88,7 @@ impl FoeEstimator for HalfPlaneMap {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math;
     use crate::synth::{FlowFieldSpec, radial_normal_flow};
 
     #[test]
@@ -104,7 +105,7 @@ mod tests {
                 .estimate(&flow, 0)
                 .point()
                 .expect("a point");
-            assert!((x - foe.0).hypot(y - foe.1) < 10.0, "{foe:?}: {x} {y}");
+            assert!(math::hypot(x - foe.0, y - foe.1) < 10.0, "{foe:?}: {x} {y}");
         }
     }
 

@@ -19,6 +19,7 @@ pub use vec_intersections::{VecIntersections, VecIntersectionsConfig};
 
 use crate::camera::CameraIntrinsics;
 use crate::flow::FlowVector;
+use crate::math;
 
 /// Which image border the FOE lies beyond when it is outside the field of view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -85,7 +86,7 @@ impl FoeEstimate {
         support: usize,
     ) -> Self {
         let (dx, dy) = (x_px - camera.cx_px, y_px - camera.cy_px);
-        let len = dx.hypot(dy).max(f64::MIN_POSITIVE);
+        let len = math::hypot(dx, dy).max(f64::MIN_POSITIVE);
         FoeEstimate::Unbounded {
             side: side.unwrap_or_else(|| Side::of_direction(dx, dy)),
             dx: dx / len,

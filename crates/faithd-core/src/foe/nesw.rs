@@ -135,13 +135,14 @@ impl FoeEstimator for Nesw {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math;
     use crate::synth::{FlowFieldSpec, radial_normal_flow};
 
     fn error_px(spec: FlowFieldSpec, seed: u64) -> f64 {
         let cam = CameraIntrinsics::dvs240();
         let flow = radial_normal_flow(&cam, &spec, seed);
         let (x, y) = Nesw::new(cam).estimate(&flow, 0).point().expect("a point");
-        (x - spec.foe_px.0).hypot(y - spec.foe_px.1)
+        math::hypot(x - spec.foe_px.0, y - spec.foe_px.1)
     }
 
     #[test]

@@ -4,6 +4,8 @@
 //! half-planes. Keeping it as an explicit convex polygon (rather than a pixel mask or a
 //! bounding box) makes its area and centroid exact and costs a few vertices per cut.
 
+use crate::math;
+
 /// The closed half-plane `{ q : nx * q.x + ny * q.y <= c }`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HalfPlane {
@@ -194,7 +196,7 @@ impl ConvexPolygon {
             let a = self.vertices[i];
             let b = self.vertices[(i + 1) % n];
             let (ex, ey) = (b.0 - a.0, b.1 - a.1);
-            let len = ex.hypot(ey);
+            let len = math::hypot(ex, ey);
             if len == 0.0 {
                 return true;
             }
@@ -281,7 +283,7 @@ mod tests {
             let mut tmp = ConvexPolygon::default();
             let mut hs = Vec::new();
             for (angle, offset, _) in planes {
-                let h = HalfPlane { nx: angle.cos(), ny: angle.sin(), c: offset };
+                let h = HalfPlane { nx: math::cos(angle), ny: math::sin(angle), c: offset };
                 poly.clip_into(&h, &mut tmp);
                 std::mem::swap(&mut poly, &mut tmp);
                 hs.push(h);
@@ -312,7 +314,7 @@ mod tests {
             let mut tmp = ConvexPolygon::default();
             for (angle, offset, _) in planes {
                 let before = poly.area();
-                poly.clip_into(&HalfPlane { nx: angle.cos(), ny: angle.sin(), c: offset }, &mut tmp);
+                poly.clip_into(&HalfPlane { nx: math::cos(angle), ny: math::sin(angle), c: offset }, &mut tmp);
                 std::mem::swap(&mut poly, &mut tmp);
                 prop_assert!(poly.area() <= before * (1.0 + 1e-12) + 1e-9);
             }

@@ -27,6 +27,7 @@
 //! costs one evaluation per occupied patch, whatever the number of vectors.
 
 use crate::flow::FlowVector;
+use crate::math;
 
 /// Tunables of the speed fit (keys of `[pipeline.faith]`, prefixed `speed_`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -419,7 +420,7 @@ impl SpeedFit {
         }
         let (mut sw, mut sx, mut sy) = (0.0, 0.0, 0.0);
         for &(x, y, cost) in &self.cells {
-            let w = (-(cost - least) / scale).exp();
+            let w = math::exp(-(cost - least) / scale);
             if w.is_finite() {
                 sw += w;
                 sx += w * x;
@@ -503,7 +504,7 @@ mod tests {
                 &config,
             )
             .unwrap();
-        let error_px = (x - truth.0).hypot(y - truth.1);
+        let error_px = math::hypot(x - truth.0, y - truth.1);
         assert!(error_px < 1.0, "({x:.2}, {y:.2}) is {error_px:.2} px off");
     }
 
@@ -525,9 +526,9 @@ mod tests {
             let (x, y) = fit
                 .refine(&flow, start, sensor, &SpeedFitConfig::default())
                 .unwrap();
-            total_px += (x - truth.0).hypot(y - truth.1);
+            total_px += math::hypot(x - truth.0, y - truth.1);
         }
-        let start_px = (start.0 - truth.0).hypot(start.1 - truth.1);
+        let start_px = math::hypot(start.0 - truth.0, start.1 - truth.1);
         assert!(
             total_px / 10.0 < 0.5 * start_px,
             "mean error {:.2} px from a start {start_px:.2} px off",

@@ -7,6 +7,7 @@
 //! least accurate method of Table I; unlike the half-plane methods it can place the
 //! FOE outside the view.
 
+use crate::math;
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
@@ -106,7 +107,7 @@ impl FoeEstimator for VecIntersections {
         if n < 10 {
             return FoeEstimate::Insufficient { vectors: n };
         }
-        let cos_max = self.config.inlier_angle_deg.to_radians().cos();
+        let cos_max = math::cos(self.config.inlier_angle_deg.to_radians());
         let mut rng = Pcg64Mcg::seed_from_u64(seed);
         let mut best: Option<(usize, f64, f64)> = None;
         for _ in 0..self.config.iterations.max(1) {
@@ -165,10 +166,10 @@ mod tests {
         (0..n)
             .map(|i| {
                 let (x, y) = (rng.random_range(0.0..239.0), rng.random_range(0.0..179.0));
-                let a = (y - foe.1).atan2(x - foe.0)
+                let a = math::atan2(y - foe.1, x - foe.0)
                     + rng.random_range(-noise_deg..=noise_deg).to_radians();
-                let speed = (x - foe.0).hypot(y - foe.1) * 0.5;
-                FlowVector::new(i as i64, x, y, speed * a.cos(), speed * a.sin())
+                let speed = math::hypot(x - foe.0, y - foe.1) * 0.5;
+                FlowVector::new(i as i64, x, y, speed * math::cos(a), speed * math::sin(a))
             })
             .collect()
     }
@@ -181,7 +182,7 @@ mod tests {
             let est =
                 VecIntersections::new(cam, VecIntersectionsConfig::default()).estimate(&flow, 5);
             let (x, y) = est.point().expect("a point");
-            assert!((x - foe.0).hypot(y - foe.1) < 3.0, "{foe:?}: {x} {y}");
+            assert!(math::hypot(x - foe.0, y - foe.1) < 3.0, "{foe:?}: {x} {y}");
         }
     }
 

@@ -1,5 +1,6 @@
 //! Normal flow of a camera translating towards a fronto-parallel scene.
 
+use crate::math;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64Mcg;
@@ -66,8 +67,8 @@ pub fn radial_normal_flow(
                 t_us,
                 x,
                 y,
-                speed * dir.cos(),
-                speed * dir.sin(),
+                speed * math::cos(dir),
+                speed * math::sin(dir),
             ));
             continue;
         }
@@ -76,10 +77,10 @@ pub fn radial_normal_flow(
             (y - spec.foe_px.1) * spec.divergence_per_s,
         );
         let normal_angle = rng.random_range(0.0..std::f64::consts::TAU);
-        let (nx, ny) = (normal_angle.cos(), normal_angle.sin());
+        let (nx, ny) = (math::cos(normal_angle), math::sin(normal_angle));
         let along = tx * nx + ty * ny;
         // Skip edges that hide nearly all of the motion; orient the normal with the flow.
-        if along.abs() < 0.3 * tx.hypot(ty) || along.abs() < 1e-6 {
+        if along.abs() < 0.3 * math::hypot(tx, ty) || along.abs() < 1e-6 {
             continue;
         }
         let (nx, ny, mag) = if along < 0.0 {
@@ -88,7 +89,7 @@ pub fn radial_normal_flow(
             (nx, ny, along)
         };
         let dth = angle_noise.sample(&mut rng);
-        let (c, s) = (dth.cos(), dth.sin());
+        let (c, s) = (math::cos(dth), math::sin(dth));
         let mag = mag * speed_noise.sample(&mut rng).max(0.05);
         let (ux, uy) = (c * nx - s * ny, s * nx + c * ny);
         out.push(FlowVector::new(t_us, x, y, mag * ux, mag * uy));

@@ -8,6 +8,7 @@
 //! flow (`r / (tau0 - t)` along `n`) and exact TTC (`tau0 - t`) for every event.
 //! Layers occlude farther ones where their (expanding) rectangle covers the pixel.
 
+use crate::math;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64Mcg;
@@ -86,8 +87,8 @@ pub fn looming_edge_events(
                 .map(|_| {
                     let angle = rng.random_range(0.0..std::f64::consts::TAU);
                     Edge {
-                        nx: angle.cos(),
-                        ny: angle.sin(),
+                        nx: math::cos(angle),
+                        ny: math::sin(angle),
                         // Offsets such that edges keep entering the view during the run.
                         d0_px: rng.random_range(1.0..150.0),
                         polarity: Polarity::from_bool(rng.random_bool(0.5)),
@@ -173,7 +174,7 @@ mod tests {
         assert!(events.iter().all(|e| e.t_us < 300_000));
         // Every edge moves outward: within one run, the events' distance from the FOE
         // grows with time on average (the lines scale up by 1/(1 - t/tau0)).
-        let dist = |e: &Event| (f64::from(e.x_px) - 120.0).hypot(f64::from(e.y_px) - 90.0);
+        let dist = |e: &Event| math::hypot(f64::from(e.x_px) - 120.0, f64::from(e.y_px) - 90.0);
         let single = LoomingEdges {
             layers: vec![Layer {
                 edges: 1,
