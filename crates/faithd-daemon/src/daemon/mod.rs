@@ -97,6 +97,10 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     // pipeline thread, or a refusal of the camera, ends this run and releases the roll.
     let faults = supervise::Faults::new();
     let runtime = faults.runtime().map_err(DaemonError::Runtime)?;
+    // Caught before anything else starts: a stop that arrives while the camera opens
+    // (a slow board widens that moment) ends in the release too, not in the default
+    // action's exit.
+    let signals = ShutdownSignals::install(&runtime).map_err(DaemonError::Runtime)?;
     let clock = DaemonClock::start();
     let camera = config.pipeline.camera;
     let source: SourceFn = match config.source.clone() {
@@ -148,7 +152,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
         endpoint,
         msp_endpoint,
         hooks,
-        shutdown_signal(),
+        signals.first(),
     ));
     // Threads still blocked in a device or a disk are not waited for.
     runtime.shutdown_timeout(Duration::from_millis(200));
@@ -842,16 +846,33 @@ async fn report_dropped_log_lines() {
     }
 }
 
-/// SIGTERM (systemd stop), SIGINT (Ctrl-C) or SIGHUP (the terminal went away):
-/// every one ends in the release, never in an exit without it.
-async fn shutdown_signal() -> &'static str {
-    use tokio::signal::unix::{SignalKind, signal};
-    let mut term = signal(SignalKind::terminate()).expect("SIGTERM handler");
-    let mut int = signal(SignalKind::interrupt()).expect("SIGINT handler");
-    let mut hup = signal(SignalKind::hangup()).expect("SIGHUP handler");
-    tokio::select! {
-        _ = term.recv() => "SIGTERM",
-        _ = int.recv() => "SIGINT",
-        _ = hup.recv() => "SIGHUP",
+/// SIGTERM (systemd stop), SIGINT (Ctrl-C) and SIGHUP (the terminal went away),
+/// caught from the moment they are installed: every one ends in the release, never in
+/// an exit without it.
+struct ShutdownSignals {
+    term: tokio::signal::unix::Signal,
+    int: tokio::signal::unix::Signal,
+    hup: tokio::signal::unix::Signal,
+}
+
+impl ShutdownSignals {
+    /// Installs the handlers on `runtime`'s signal driver.
+    fn install(runtime: &tokio::runtime::Runtime) -> std::io::Result<Self> {
+        use tokio::signal::unix::{SignalKind, signal};
+        let _entered = runtime.enter();
+        Ok(Self {
+            term: signal(SignalKind::terminate())?,
+            int: signal(SignalKind::interrupt())?,
+            hup: signal(SignalKind::hangup())?,
+        })
+    }
+
+    /// The first of them to arrive, by name.
+    async fn first(mut self) -> &'static str {
+        tokio::select! {
+            _ = self.term.recv() => "SIGTERM",
+            _ = self.int.recv() => "SIGINT",
+            _ = self.hup.recv() => "SIGHUP",
+        }
     }
 }
