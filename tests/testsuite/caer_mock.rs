@@ -673,12 +673,14 @@ fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
     let mock = MockAutopilot::start(std::sync::Arc::new(Controls::default()));
     let dir = common::TempDir::new("caer-setting");
     let config = dir.0.join("faithd.toml");
-    let toml = mock.service_toml(LIBRARY, "enabled = false").replace(
-        "kind = \"caer\"\n",
-        "kind = \"caer\"\ncaer_settings = [[5, 1, 24575], [5, 2, 16399], [9, 7, 1]]\n",
-    );
+    let toml = mock
+        .service_toml(&common::caer_mock_library(), "enabled = false")
+        .replace(
+            "kind = \"caer\"\n",
+            "kind = \"caer\"\ncaer_settings = [[5, 1, 24575], [5, 2, 16399], [9, 7, 1]]\n",
+        );
     std::fs::write(&config, toml).unwrap();
-    let output = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let output = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .env("RUST_LOG", "info")
@@ -701,9 +703,13 @@ fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
     let mock = MockAutopilot::start(std::sync::Arc::new(Controls::default()));
     let dir = common::TempDir::new("caer-none");
     let config = dir.0.join("faithd.toml");
-    std::fs::write(&config, mock.service_toml(LIBRARY, "enabled = false")).unwrap();
+    std::fs::write(
+        &config,
+        mock.service_toml(&common::caer_mock_library(), "enabled = false"),
+    )
+    .unwrap();
     let log = dir.0.join("faithd.log");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let mut child = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .env("CAER_MOCK_DISCONNECT_AFTER", "0")

@@ -493,7 +493,7 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
         .expect("window log");
     let logged_windows = std::fs::read_to_string(windows).unwrap().lines().count() - 1;
     assert!(logged_windows > 50, "{logged_windows} windows logged");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let out = crate::common::faithd()
         .args(["replay", "--json", "--events"])
         .arg(aedat)
         .arg("--mavlink")
@@ -560,7 +560,7 @@ fn every_flight_is_recorded_and_the_recording_replays_to_a_roll() {
     let dir = TempDir::new("replay-config");
     let config = dir.0.join("faithd.toml");
     std::fs::write(&config, "[pipeline]\nseed = 7\n").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let out = crate::common::faithd()
         .args(["replay", "--events"])
         .arg(aedat)
         .arg("--mavlink")
@@ -581,7 +581,7 @@ fn a_simulated_camera_needs_the_command_line_opt_in() {
     let dir = TempDir::new("sim-refused");
     let config = dir.0.join("faithd.toml");
     std::fs::write(&config, "[source]\nkind = \"sim\"\n").unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let out = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .output()
@@ -616,7 +616,7 @@ fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
         let config = dir.0.join("faithd.toml");
         std::fs::write(&config, mock.service_toml(libcaer_path, "enabled = false")).unwrap();
         let log = std::fs::File::create(dir.0.join("faithd.log")).unwrap();
-        let child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+        let child = crate::common::faithd()
             .args(["run", "--config"])
             .arg(&config)
             .stderr(log)
@@ -633,7 +633,7 @@ fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
     assert!(text.contains("libcaer not found"), "{text}");
     // The C mock of libcaer in its place: the same binary opens it and streams,
     // with no --simulated-camera.
-    let (mut child, log) = run(libcaer_sys::mock::LIBRARY);
+    let (mut child, log) = run(&crate::common::caer_mock_library());
     let deadline = Instant::now() + Duration::from_secs(5);
     let streaming = loop {
         let text = std::fs::read_to_string(&log).unwrap_or_default();
@@ -646,7 +646,9 @@ fn the_default_build_opens_libcaer_at_run_time_and_says_when_it_is_missing() {
         nix::unistd::Pid::from_raw(child.id() as i32),
         nix::sys::signal::Signal::SIGTERM,
     );
-    assert!(child.wait().unwrap().success(), "{streaming}");
+    let status = child.wait().unwrap();
+    let journal = std::fs::read_to_string(&log).unwrap_or_default();
+    assert!(status.success(), "{status}: {journal}");
     assert!(streaming.contains("libcaer loaded"), "{streaming}");
     assert!(streaming.contains("camera open: streaming"), "{streaming}");
     assert!(!streaming.contains("SIMULATED CAMERA"), "{streaming}");
@@ -750,7 +752,7 @@ fn a_journal_that_stops_reading_never_holds_up_a_roll() {
     )
     .unwrap();
     let started = Instant::now();
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let mut child = crate::common::faithd()
         .args(["run", "--simulated-camera", "--config"])
         .arg(&config)
         .env("RUST_LOG", "debug")
@@ -780,10 +782,10 @@ fn a_camera_of_another_size_stops_the_daemon_with_the_keys_to_change() {
     let config = dir.0.join("faithd.toml");
     std::fs::write(
         &config,
-        mock.service_toml(libcaer_sys::mock::LIBRARY, "enabled = false"),
+        mock.service_toml(&crate::common::caer_mock_library(), "enabled = false"),
     )
     .unwrap();
-    let output = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let output = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .env("RUST_LOG", "info")

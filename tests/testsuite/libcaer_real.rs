@@ -94,7 +94,7 @@ fn faithd_run_loads_the_real_library_and_reports_no_camera() {
     let config = dir.0.join("faithd.toml");
     std::fs::write(&config, mock.service_toml(&path, "enabled = false")).unwrap();
     let log = dir.0.join("faithd.log");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let mut child = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .stderr(std::fs::File::create(&log).unwrap())

@@ -9,6 +9,7 @@
 
 mod common;
 
+mod architectures;
 mod caer_mock;
 #[cfg(feature = "sim")]
 mod closed_loop;

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 fn faithd(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_faithd"))
+    crate::common::faithd()
         .args(args)
         .output()
         .expect("run faithd")
@@ -73,7 +73,7 @@ fn every_subcommand_has_a_manual_page_that_man_renders() {
     // The lab's commands exactly when the build has the lab.
     assert_eq!(
         expected.contains(&"faithd-bench-pipeline".to_string()),
-        cfg!(feature = "sim"),
+        crate::common::sim_built(),
         "{expected:?}"
     );
     let mut written: Vec<String> = std::fs::read_dir(dir.path())
@@ -106,7 +106,7 @@ fn every_subcommand_has_a_manual_page_that_man_renders() {
     let run = man_text(&dir.path().join("faithd-run.1"));
     assert!(run.contains("--config"), "{run}");
     assert!(run.contains("--simulated-camera"), "{run}");
-    if cfg!(feature = "sim") {
+    if crate::common::sim_built() {
         let sim = man_text(&dir.path().join("faithd-sim.1"));
         assert!(sim.contains("--cpu-scale"), "{sim}");
     }
@@ -151,7 +151,7 @@ fn bash_completes_subcommands_and_options_from_the_generated_script() {
     );
     // The lab's commands are offered exactly when the build has them.
     let bench = bash_completes(&script, &["faithd", "bench", ""]);
-    if cfg!(feature = "sim") {
+    if crate::common::sim_built() {
         assert_eq!(
             bash_completes(&script, &["faithd", "sim", "--cpu"]),
             ["--cpu-scale"]
@@ -176,7 +176,7 @@ fn the_version_names_the_builds_features() {
     let version = stdout(&faithd(&["--version"]));
     assert!(version.starts_with("faithd 0."), "{version}");
     assert!(version.contains("camera"), "{version}");
-    if cfg!(feature = "sim") {
+    if crate::common::sim_built() {
         assert!(version.contains("sim (demo, sim, bench)"), "{version}");
     } else {
         assert!(version.contains("flight build"), "{version}");

@@ -30,7 +30,7 @@ use faithd_formats::events::text::TextWriter;
 use faithd_formats::events::{Format, detect_format, open_events, open_reader, read_all};
 
 /// The recordings and how many events each holds (their README).
-const RECORDINGS: [(&str, usize); 9] = [
+pub(crate) const RECORDINGS: [(&str, usize); 9] = [
     ("davis240c/boxes_rotation", 30_000),
     ("davis240c/boxes_translation", 30_000),
     ("davis240c/dynamic_rotation", 30_000),
@@ -47,7 +47,7 @@ const WINDOW_US: i64 = 10_000;
 
 /// The recordings' directory, or `None` (and one line on the real standard error,
 /// which the harness does not capture) when it is not beside the project.
-fn real_events() -> Option<PathBuf> {
+pub(crate) fn real_events() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/real-events");
     if dir.join("slider_depth/events.txt").is_file() {
         Some(dir)
@@ -63,7 +63,7 @@ fn real_events() -> Option<PathBuf> {
 
 /// The recording's pinhole intrinsics from its calib.txt (`fx fy cx cy k1 k2 p1 p2
 /// k3`; the events are not undistorted, and neither is anything here).
-fn intrinsics(dir: &Path) -> CameraIntrinsics {
+pub(crate) fn intrinsics(dir: &Path) -> CameraIntrinsics {
     let text = std::fs::read_to_string(dir.join("calib.txt")).unwrap();
     let v: Vec<f64> = text
         .split_whitespace()

@@ -106,7 +106,7 @@ fn a_full_card_a_pulled_camera_and_a_kill_lose_nothing_written_before() {
     std::fs::write(
         &config,
         mock.service_toml(
-            libcaer_sys::mock::LIBRARY,
+            &crate::common::caer_mock_library(),
             &format!(
                 "dir = \"{}\"\nmax_file_bytes = 1048576\nmax_total_bytes = 67108864\nsync_interval_ms = 100\n",
                 card.display()
@@ -115,7 +115,7 @@ fn a_full_card_a_pulled_camera_and_a_kill_lose_nothing_written_before() {
     )
     .unwrap();
     let log_path = dir.0.join("faithd.log");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let mut child = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .env("RUST_LOG", "info")

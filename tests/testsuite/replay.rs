@@ -5,7 +5,6 @@
 use crate::common;
 
 use std::path::Path;
-use std::process::Command;
 
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
@@ -21,7 +20,7 @@ fn events() -> Vec<faithd_core::event::Event> {
 }
 
 fn replay(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let out = crate::common::faithd()
         .arg("replay")
         .args(args)
         .output()
@@ -234,7 +233,7 @@ fn a_replay_counts_its_windows_on_a_terminal_and_not_in_its_output() {
     write_inputs(&dir.0);
     let aedat = dir.0.join("flight.aedat4");
     let pty = nix::pty::openpty(None, None).unwrap();
-    let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let child = crate::common::faithd()
         .args(["replay", "--events", aedat.to_str().unwrap()])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::from(pty.slave))

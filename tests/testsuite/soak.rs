@@ -51,7 +51,7 @@ fn soak(duration: Duration, every: Duration) -> Vec<Sample> {
     std::fs::write(
         &config,
         mock.service_toml(
-            libcaer_sys::mock::LIBRARY,
+            &crate::common::caer_mock_library(),
             &format!(
                 "dir = \"{}\"\nmax_file_bytes = 1048576\nmax_total_bytes = 8388608\n",
                 flights.display()
@@ -60,7 +60,7 @@ fn soak(duration: Duration, every: Duration) -> Vec<Sample> {
     )
     .unwrap();
     let log_path = dir.0.join("faithd.log");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_faithd"))
+    let mut child = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
         .env("RUST_LOG", "info")

@@ -2,7 +2,7 @@
 //! and log.
 
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Stdio};
 use std::time::Duration;
 
 use super::autopilot::MockAutopilot;
@@ -58,7 +58,7 @@ impl Daemon {
         std::fs::write(&config, format!("{config_text}\n{record}")).unwrap();
         let log_path = dir.0.join("faithd.log");
         let log = std::fs::File::create(&log_path).unwrap();
-        let child = Command::new(env!("CARGO_BIN_EXE_faithd"))
+        let child = crate::common::faithd()
             .arg("run")
             .arg("--simulated-camera")
             .arg("--config")

@@ -100,3 +100,49 @@ pub fn unit_restart_delay() -> Duration {
         ),
     }
 }
+
+/// The `faithd` binary under test: the one cargo built for these tests, or, when
+/// `FAITHD_UNDER_TEST` is set, the command it names (words split on whitespace), such
+/// as `qemu-aarch64 -L / target/aarch64-unknown-linux-gnu/release/faithd`: the same
+/// tests then drive another architecture's flight build (.ci/run does).
+pub fn faithd() -> std::process::Command {
+    match faithd_under_test() {
+        Some(words) => {
+            let mut command = std::process::Command::new(&words[0]);
+            command.args(&words[1..]);
+            command
+        }
+        None => std::process::Command::new(env!("CARGO_BIN_EXE_faithd")),
+    }
+}
+
+/// Whether the binary under test has the simulation commands (`sim` feature): the
+/// one cargo built has them when these tests do; `FAITHD_UNDER_TEST` names a flight
+/// build, as the packages ship.
+pub fn sim_built() -> bool {
+    cfg!(feature = "sim") && faithd_under_test().is_none()
+}
+
+/// The C mock of libcaer for the binary under test to open: the one built for these
+/// tests, or for another architecture's build the one `FAITHD_UNDER_TEST_CAER_MOCK`
+/// names (built for that architecture from libcaer-sys/mock/caer_mock.c; .ci/run
+/// does), since a program loads only libraries of its own architecture.
+pub fn caer_mock_library() -> String {
+    if faithd_under_test().is_none() {
+        return libcaer_sys::mock::LIBRARY.to_string();
+    }
+    std::env::var("FAITHD_UNDER_TEST_CAER_MOCK").expect(
+        "FAITHD_UNDER_TEST is set but FAITHD_UNDER_TEST_CAER_MOCK is not: name the C mock \
+         of libcaer built for that build's architecture",
+    )
+}
+
+/// `FAITHD_UNDER_TEST` split into words, when it names a command.
+pub fn faithd_under_test() -> Option<Vec<String>> {
+    let words: Vec<String> = std::env::var("FAITHD_UNDER_TEST")
+        .ok()?
+        .split_whitespace()
+        .map(str::to_string)
+        .collect();
+    (!words.is_empty()).then_some(words)
+}
