@@ -78,6 +78,11 @@ faithd_build_flight() {
     faithd_binary "$arch"
 }
 
+# Whether glibc version `$1` is no newer than the baseline.
+faithd_within_baseline() {
+    [[ $(printf '%s\n%s\n' "$1" "$GLIBC_BASELINE" | sort -V | tail -n 1) == "$GLIBC_BASELINE" ]]
+}
+
 # The newest GLIBC_x.y symbol version that the ELF file `$1` asks for.
 faithd_newest_glibc() {
     readelf --version-info --wide "$1" | grep -o 'Name: GLIBC_[0-9.]*' | sed 's/Name: GLIBC_//' |
