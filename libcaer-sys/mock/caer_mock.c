@@ -26,9 +26,11 @@
  *   caerDeviceDataStop turns them off. DataStop on a device whose DataStart never ran
  *   or failed reaches a NULL ring buffer in libcaer (SIGSEGV): this mock aborts there.
  * - caerDeviceDataGet in blocking mode (CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING, off
- *   by default) waits for a container and gives up with NULL after about a second
- *   (1000 sleeps of 1 ms); in non-blocking mode it returns NULL at once when nothing
- *   is ready; once transfers stop (the device went away) it returns NULL at once.
+ *   by default) waits for a container, retrying after 1 ms sleeps (data_exchange.h,
+ *   dataExchangeGet), and gives up with NULL after 1.11-1.22 s without data, as
+ *   libcaer 3.3.x was measured to (the give-up here is drawn in that range); in
+ *   non-blocking mode it returns NULL at once when nothing is ready; once transfers
+ *   stop (the device went away) it returns NULL at once.
  * - When the device goes away, libcaer's USB thread stops the transfers and then
  *   calls the shutdown callback given to DataStart: from that thread, not from DataGet.
  *
@@ -174,6 +176,18 @@ static double clock_rate = 1.0;
 static int32_t latency_min_us = 0, latency_max_us = 0;
 static int64_t session_host0_us = 0, session_device0_us = 0;
 static uint64_t latency_rng = 1;
+static const char *call_log_path = NULL;
+int64_t caer_mock_now_us(void);
+
+/* One line per device call, appended and closed at once so that a reader sees it
+   even when the process is killed right after. */
+static void log_call(const char *call) {
+    if (call_log_path == NULL) return;
+    FILE *f = fopen(call_log_path, "a");
+    if (f == NULL) return;
+    fprintf(f, "%lld %s\n", (long long) caer_mock_now_us(), call);
+    fclose(f);
+}
 
 /* What the script can make fail (caer_mock_fail, CAER_MOCK_FAIL). */
 enum { FAIL_DEFAULT_CONFIG = 1, FAIL_DATA_START = 2, FAIL_INFO = 4 };
@@ -206,7 +220,11 @@ void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens
  * script functions: the same script is read from the environment when the library
  * is loaded. CAER_MOCK_SENSOR=WxH, CAER_MOCK_DISCONNECT_AFTER=containers,
  * CAER_MOCK_FAILED_OPENS=opens refused after the disconnect, CAER_MOCK_FAIL=a sum of
- * 1 (default config refused), 2 (data start fails), 4 (no DVS size).
+ * 1 (default config refused), 2 (data start fails), 4 (no DVS size),
+ * CAER_MOCK_QUIET=after,gap_us (a dark scene, as caer_mock_quiet), and
+ * CAER_MOCK_LOG=a file to which every Open, DataStart, DataStop and Close is appended
+ * as it happens (a line each, with CLOCK_MONOTONIC in microseconds), for a test to
+ * read what a process it does not share did to the device.
  */
 __attribute__((constructor)) static void caer_mock_from_env(void) {
     memset(caller_write, -1, sizeof(caller_write));
@@ -222,6 +240,14 @@ __attribute__((constructor)) static void caer_mock_from_env(void) {
     if (after) script_before_disconnect = (int32_t) atoi(after);
     if (failed) script_failed_opens = (int32_t) atoi(failed);
     if (fail) failures = (int32_t) atoi(fail);
+    const char *quiet = getenv("CAER_MOCK_QUIET");
+    long long gap = 0;
+    int q_after = 0;
+    if (quiet && sscanf(quiet, "%d,%lld", &q_after, &gap) == 2 && q_after >= 0 && gap >= 0) {
+        quiet_after = q_after;
+        quiet_us = (int64_t) gap;
+    }
+    call_log_path = getenv("CAER_MOCK_LOG");
 }
 
 void caer_mock_sensor(int16_t width_px, int16_t height_px) {
@@ -269,6 +295,15 @@ static void sleep_until_us(int64_t at_us) {
     struct timespec t = { .tv_sec = at_us / 1000000, .tv_nsec = (at_us % 1000000) * 1000 };
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, NULL) == EINTR) {
     }
+}
+
+/* xorshift64 of its own for the blocking give-up, apart from the latency's. */
+static uint64_t give_up_rng = 0x9E3779B97F4A7C15u;
+static uint64_t next_give_up_rng(void) {
+    give_up_rng ^= give_up_rng << 13;
+    give_up_rng ^= give_up_rng >> 7;
+    give_up_rng ^= give_up_rng << 17;
+    return give_up_rng;
 }
 
 int32_t caer_mock_open_attempts(void) { return open_attempts; }
@@ -346,6 +381,7 @@ struct caer_device_handle *caerDeviceOpen(uint16_t id, uint16_t type, uint8_t bu
                                           const char *serial) {
     (void) id; (void) bus; (void) addr; (void) serial;
     open_attempts++;
+    log_call("Open");
     if (type != 4) return NULL;
     if (atomic_load(&vanished)) {
         if (failed_opens_left > 0) { failed_opens_left--; return NULL; }
@@ -365,6 +401,7 @@ static void join_notifier(struct caer_device_handle *h) {
 bool caerDeviceClose(struct caer_device_handle **h) {
     if (h == NULL || *h == NULL) return false;
     closes++;
+    log_call("Close");
     join_notifier(*h);
     free(*h);
     *h = NULL;
@@ -439,6 +476,7 @@ bool caerDeviceDataStart(struct caer_device_handle *h, void (*inc)(void *), void
     atomic_store(&h->transfers, true);
     run_flags(true);
     starts++;
+    log_call("DataStart");
     stream_time_us = 0;
     session_host0_us = caer_mock_now_us();
     session_device0_us = 0;
@@ -459,6 +497,7 @@ bool caerDeviceDataStop(struct caer_device_handle *h) {
     run_flags(false);
     h->started = false;
     stops++;
+    log_call("DataStop");
     return true;
 }
 
@@ -659,9 +698,10 @@ struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle 
     int64_t now_us = caer_mock_now_us();
     if (due_us > now_us) {
         if (!blocking) return NULL;
-        if (due_us - now_us > 1000000) {
-            /* libcaer: about a second of 1 ms sleeps, then NULL. */
-            sleep_until_us(now_us + 1000000);
+        int64_t give_up_us = 1110000 + (int64_t) (next_give_up_rng() % 110001);
+        if (due_us - now_us > give_up_us) {
+            /* libcaer 3.3.x, measured: 1.11-1.22 s of 1 ms sleeps, then NULL. */
+            sleep_until_us(now_us + give_up_us);
             return NULL;
         }
         sleep_until_us(due_us);

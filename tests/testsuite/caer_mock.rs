@@ -13,10 +13,12 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 use std::time::{Duration, Instant};
 
 use faithd::clock::DaemonClock;
+use faithd::shutdown::Shutdown;
+use faithd::source::SourceIo;
 use faithd::source::caer::{
-    CameraError, Ended, NO_CAMERA, SensorSize, SessionError, run, serve_device,
+    CameraError, Ended, NO_CAMERA, RetryTiming, SensorSize, SessionError, run, serve_device,
 };
-use faithd_core::event::Polarity;
+use faithd_core::event::{Event, Polarity};
 use libcaer_sys::mock::{
     COUNT_CLOSES, COUNT_SHUTDOWN_CALLS, COUNT_STARTS, COUNT_STOPS, FAIL_DATA_START,
     FAIL_DEFAULT_CONFIG, FAIL_INFO, LIBRARY, Script,
@@ -29,6 +31,24 @@ const DVS240: SensorSize = SensorSize {
     width_px: 240,
     height_px: 180,
 };
+
+/// A camera thread's side of a run nobody stops: the test ends it through the
+/// pipeline's end of the channel, or through the mock's script.
+fn io(clock: DaemonClock, batches: &std::sync::mpsc::SyncSender<Vec<Event>>) -> SourceIo {
+    SourceIo {
+        clock,
+        batches: batches.clone(),
+        stop: Shutdown::new().handle(),
+    }
+}
+
+/// Retries from `first_ms`, doubling up to 100 ms: a test's camera returns quickly.
+fn retry_ms(first_ms: u64) -> RetryTiming {
+    RetryTiming {
+        first: Duration::from_millis(first_ms.min(50)),
+        longest: Duration::from_millis(first_ms),
+    }
+}
 
 fn mock() -> (Libcaer, Script) {
     (
@@ -53,13 +73,13 @@ fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
     unsafe { (script.set)(50, 0) };
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let clock = DaemonClock::start();
-    let ended = serve_device(&lib, &[(5, 1, 24575), (5, 3, 42)], DVS240, clock, &tx).unwrap();
+    let ended = serve_device(&lib, &[(5, 1, 24575), (5, 3, 42)], DVS240, &io(clock, &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     assert_eq!(unsafe { (script.config_value)(5, 3) }, 42);
     assert_eq!(
         unsafe { (script.config_value)(-2, 1) },
-        1,
-        "blocking mode set"
+        0,
+        "non-blocking: the camera thread waits between reads where it hears a stop"
     );
     let batches: Vec<_> = rx.try_iter().collect();
     assert_eq!(batches.len(), 50);
@@ -91,9 +111,8 @@ fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
             &lib,
             Vec::new(),
             DVS240,
-            DaemonClock::start(),
-            tx,
-            Duration::from_millis(100),
+            &io(DaemonClock::start(), &tx),
+            retry_ms(100),
         )
     });
     let mut events = 0;
@@ -133,7 +152,7 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
         configured: DVS240,
     };
     assert_eq!(
-        serve_device(&lib, &[], DVS240, clock, &tx),
+        serve_device(&lib, &[], DVS240, &io(clock, &tx)),
         Err(SessionError::Refused(mismatch.clone()))
     );
     assert!(
@@ -150,9 +169,8 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
             &source_lib,
             Vec::new(),
             DVS240,
-            clock,
-            tx,
-            Duration::from_millis(100),
+            &io(clock, &tx),
+            retry_ms(100),
         );
         let _ = done_tx.send(result);
     });
@@ -175,7 +193,7 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
     unsafe { (script.sensor)(346, 260) };
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     assert_eq!(
-        serve_device(&lib, &[], davis346, clock, &tx),
+        serve_device(&lib, &[], davis346, &io(clock, &tx)),
         Ok(Ended::DeviceLost)
     );
     assert_eq!(rx.try_iter().count(), 5);
@@ -201,7 +219,7 @@ fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
     let after_us = unsafe { (script.now_us)() };
     let zero_us = (before_us + after_us) / 2;
     assert!(after_us - before_us < 200);
-    let ended = serve_device(&lib, &[], DVS240, clock, &tx).unwrap();
+    let ended = serve_device(&lib, &[], DVS240, &io(clock, &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     let batches: Vec<_> = rx.try_iter().collect();
     assert_eq!(batches.len(), 2_500, "none dropped");
@@ -246,7 +264,7 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     let (lib, script) = mock();
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let session = |settings: &[(i8, u8, u32)]| {
-        serve_device(&lib, settings, DVS240, DaemonClock::start(), &tx)
+        serve_device(&lib, settings, DVS240, &io(DaemonClock::start(), &tx))
     };
 
     // A DAVIS346 where a DVS240 is configured.
@@ -363,7 +381,7 @@ fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
     unsafe { (script.set)(50, 0) };
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let settings = [(5, 1, 24575), (5, 2, 16399)];
-    let ended = serve_device(&lib, &settings, DVS240, DaemonClock::start(), &tx).unwrap();
+    let ended = serve_device(&lib, &settings, DVS240, &io(DaemonClock::start(), &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     for (module, param, value) in settings {
         assert_eq!(
@@ -420,9 +438,8 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
             &lib,
             vec![(5, 1, 24575), (5, 200, 1)],
             DVS240,
-            DaemonClock::start(),
-            tx,
-            Duration::from_millis(100),
+            &io(DaemonClock::start(), &tx),
+            retry_ms(100),
         );
         let _ = done_tx.send(result);
     });
@@ -447,10 +464,10 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
     assert!(rx.try_recv().is_err());
 }
 
-/// libcaer's blocking DataGet gives up with NULL after about a second without data
-/// (1000 sleeps of 1 ms); in non-blocking mode it returns at once.
+/// libcaer's blocking DataGet gives up with NULL only after 1.11-1.22 s without data
+/// (measured on libcaer 3.3.x); in non-blocking mode it returns at once.
 #[test]
-fn a_blocking_data_get_gives_up_after_about_a_second_without_data() {
+fn a_blocking_data_get_gives_up_only_after_more_than_a_second_without_data() {
     let _device = device();
     let (lib, script) = mock();
     unsafe {
@@ -477,7 +494,7 @@ fn a_blocking_data_get_gives_up_after_about_a_second_without_data() {
         assert!((lib.caerDeviceDataGet)(handle).is_null());
         let waited = asked.elapsed();
         assert!(
-            waited >= Duration::from_millis(900) && waited < Duration::from_millis(1500),
+            waited >= Duration::from_millis(1110) && waited < Duration::from_millis(1500),
             "{waited:?}"
         );
         assert!((lib.caerDeviceConfigSet)(handle, -2, 1, 0));
@@ -501,7 +518,7 @@ fn a_dark_scene_is_not_a_lost_camera() {
     }
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let started = Instant::now();
-    let ended = serve_device(&lib, &[], DVS240, DaemonClock::start(), &tx).unwrap();
+    let ended = serve_device(&lib, &[], DVS240, &io(DaemonClock::start(), &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     assert!(started.elapsed() >= Duration::from_millis(2_500));
     let batches: Vec<_> = rx.try_iter().collect();
@@ -694,38 +711,228 @@ fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
     );
 }
 
-/// `faithd run` with no camera on USB (the mock's camera gone at once and never
-/// back, as the real libcaer is with nothing plugged in): it keeps trying, says so,
-/// and stops cleanly on SIGTERM.
-#[test]
-fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
+/// What `faithd run` on the mock did around a SIGTERM.
+struct Sigtermed {
+    /// From the signal to the process's exit.
+    took: Duration,
+    status: std::process::ExitStatus,
+    journal: String,
+    /// The mock's log of device calls (Open, DataStart, DataStop, Close), in order.
+    calls: Vec<String>,
+}
+
+/// `faithd run` on the mock libcaer with `env`, until `ready` holds on its journal
+/// (5 s at most); then SIGTERM, and what it did.
+fn faithd_run_until_sigterm(
+    tag: &str,
+    env: &[(&str, &str)],
+    ready: impl Fn(&str) -> bool,
+) -> Sigtermed {
     use common::autopilot::{Controls, MockAutopilot};
     let mock = MockAutopilot::start(std::sync::Arc::new(Controls::default()));
-    let dir = common::TempDir::new("caer-none");
+    let dir = common::TempDir::new(tag);
     let config = dir.0.join("faithd.toml");
     std::fs::write(
         &config,
         mock.service_toml(&common::caer_mock_library(), "enabled = false"),
     )
     .unwrap();
-    let log = dir.0.join("faithd.log");
+    let (log, calls) = (dir.0.join("faithd.log"), dir.0.join("calls.log"));
     let mut child = crate::common::faithd()
         .args(["run", "--config"])
         .arg(&config)
-        .env("CAER_MOCK_DISCONNECT_AFTER", "0")
-        .env("CAER_MOCK_FAILED_OPENS", "1000000")
+        .envs(env.iter().copied())
+        .env("CAER_MOCK_LOG", &calls)
         .stderr(std::fs::File::create(&log).unwrap())
         .spawn()
         .unwrap();
-    let said = common::poll_until(Duration::from_secs(5), || {
-        std::fs::read_to_string(&log).is_ok_and(|t| t.matches(NO_CAMERA).count() >= 2)
+    let reached = common::poll_until(Duration::from_secs(5), || {
+        std::fs::read_to_string(&log).is_ok_and(|t| ready(&t))
     });
+    let signalled = Instant::now();
     let _ = nix::sys::signal::kill(
         nix::unistd::Pid::from_raw(child.id() as i32),
         nix::sys::signal::Signal::SIGTERM,
     );
     let status = child.wait().unwrap();
-    let text = std::fs::read_to_string(&log).unwrap();
-    assert!(said, "{text}");
-    assert_eq!(status.code(), Some(0), "{text}");
+    let took = signalled.elapsed();
+    let journal = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        reached,
+        "the camera never reached the state under test:\n{journal}"
+    );
+    let calls = std::fs::read_to_string(&calls)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.split_once(' ').map(|(_, call)| call.to_string()))
+        .collect();
+    eprintln!("{tag}: SIGTERM to exit {} ms", took.as_millis());
+    Sigtermed {
+        took,
+        status,
+        journal,
+        calls,
+    }
+}
+
+/// Within this of SIGTERM faithd has released the roll (up to three centre frames
+/// 40 ms apart), stopped every task and thread and exited; a camera thread parked in
+/// libcaer's blocking read (1.11-1.22 s without data) could not.
+const EXIT_WITHIN: Duration = Duration::from_millis(1000);
+
+/// `faithd run` with no camera on USB (the mock's camera gone at once and never
+/// back, as the real libcaer is with nothing plugged in): it keeps trying, says so,
+/// and on SIGTERM stops waiting at once and exits 0, the one device it had opened
+/// stopped and closed.
+#[test]
+fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
+    let run = faithd_run_until_sigterm(
+        "caer-none",
+        &[
+            ("CAER_MOCK_DISCONNECT_AFTER", "0"),
+            ("CAER_MOCK_FAILED_OPENS", "1000000"),
+        ],
+        |t| t.matches(NO_CAMERA).count() >= 2,
+    );
+    let text = &run.journal;
+    assert_eq!(run.status.code(), Some(0), "{text}");
+    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
+    assert!(
+        text.contains("camera: stopped while waiting to retry"),
+        "{text}"
+    );
+    assert!(!text.contains("did not stop within"), "{text}");
+    assert_eq!(
+        run.calls
+            .iter()
+            .filter(|c| *c != "Open")
+            .collect::<Vec<_>>(),
+        ["DataStart", "DataStop", "Close"],
+        "{:?}",
+        run.calls
+    );
+}
+
+/// SIGTERM while the camera streams: the transfer is stopped and the device closed
+/// before faithd exits 0.
+#[test]
+fn faithd_run_stops_the_camera_and_closes_it_on_sigterm_while_streaming() {
+    let run = faithd_run_until_sigterm("caer-streaming", &[], |t| {
+        t.contains("camera open: streaming") && t.contains("ready:")
+    });
+    let text = &run.journal;
+    assert_eq!(run.status.code(), Some(0), "{text}");
+    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
+    assert!(text.contains("camera stopped and closed"), "{text}");
+    assert_eq!(run.calls, ["Open", "DataStart", "DataStop", "Close"]);
+}
+
+/// SIGTERM in a dark scene (no events for a minute, where a blocking read would sit
+/// in libcaer): the same clean stop.
+#[test]
+fn faithd_run_stops_the_camera_and_closes_it_on_sigterm_in_a_dark_scene() {
+    let run = faithd_run_until_sigterm("caer-dark", &[("CAER_MOCK_QUIET", "5,60000000")], |t| {
+        t.contains("camera open: streaming") && t.contains("ready:")
+    });
+    let text = &run.journal;
+    assert_eq!(run.status.code(), Some(0), "{text}");
+    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
+    assert!(text.contains("camera stopped and closed"), "{text}");
+    assert_eq!(run.calls, ["Open", "DataStart", "DataStop", "Close"]);
+}
+
+/// Runs the source on a thread of its own with a stop of its own, waits until
+/// `reached` says the camera is in the state under test, asks it to stop, and
+/// returns how long the source took to return and what it returned.
+fn stop_when(
+    lib: Libcaer,
+    mut reached: impl FnMut(&std::sync::mpsc::Receiver<Vec<Event>>) -> bool,
+) -> (Duration, Result<(), CameraError>) {
+    let shutdown = Shutdown::new();
+    let (tx, rx) = std::sync::mpsc::sync_channel(10_000);
+    let io = SourceIo {
+        clock: DaemonClock::start(),
+        batches: tx,
+        stop: shutdown.handle(),
+    };
+    let source =
+        std::thread::spawn(move || run(&lib, Vec::new(), DVS240, &io, RetryTiming::DEFAULT));
+    assert!(
+        common::poll_until(Duration::from_secs(5), || reached(&rx)),
+        "the camera never reached the state under test"
+    );
+    let asked = Instant::now();
+    shutdown.request();
+    let ended = source.join().unwrap();
+    (asked.elapsed(), ended)
+}
+
+/// The device calls of the session: (DataStart, DataStop, Close).
+fn started_stopped_closed(script: &Script) -> (i32, i32, i32) {
+    unsafe {
+        (
+            (script.count)(COUNT_STARTS),
+            (script.count)(COUNT_STOPS),
+            (script.count)(COUNT_CLOSES),
+        )
+    }
+}
+
+/// The stop reaches the camera thread within 200 ms in each state it can be in,
+/// and a started device is stopped and every opened one closed.
+const STOP_HEARD_WITHIN: Duration = Duration::from_millis(200);
+
+#[test]
+fn a_stop_while_streaming_stops_the_transfer_and_closes_the_device_at_once() {
+    let _device = device();
+    let (lib, script) = mock();
+    unsafe { (script.set)(1_000_000, 0) };
+    let mut batches = 0;
+    let (took, ended) = stop_when(lib, |rx| {
+        batches += rx.try_iter().count();
+        batches >= 20
+    });
+    assert_eq!(ended, Ok(()));
+    assert!(took < STOP_HEARD_WITHIN, "{took:?}");
+    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
+}
+
+/// In a dark scene the old blocking read sat in libcaer for 1.11-1.22 s; the
+/// non-blocking reads with a wait on the stop hear it at once.
+#[test]
+fn a_stop_in_a_dark_scene_is_heard_at_once_where_a_blocking_read_would_wait_over_a_second() {
+    let _device = device();
+    let (lib, script) = mock();
+    unsafe {
+        (script.set)(1_000_000, 0);
+        (script.quiet)(5, 60_000_000);
+    }
+    let mut batches = 0;
+    let mut dark_since: Option<Instant> = None;
+    let (took, ended) = stop_when(lib, |rx| {
+        batches += rx.try_iter().count();
+        if batches >= 5 && dark_since.is_none() {
+            dark_since = Some(Instant::now());
+        }
+        dark_since.is_some_and(|t| t.elapsed() > Duration::from_millis(300))
+    });
+    assert_eq!(batches, 5, "the scene went dark after five containers");
+    assert_eq!(ended, Ok(()));
+    assert!(took < STOP_HEARD_WITHIN, "{took:?}");
+    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
+    assert_eq!(unsafe { (script.config_value)(-2, 1) }, 0, "never blocking");
+}
+
+/// With no camera the thread waits between attempts (up to 2 s): the stop cuts the
+/// wait short. The session that found the camera before it vanished was stopped and
+/// closed; the refused opens left nothing open.
+#[test]
+fn a_stop_while_retrying_without_a_camera_cuts_the_wait_short() {
+    let _device = device();
+    let (lib, script) = mock();
+    unsafe { (script.set)(0, 1_000_000) };
+    let (took, ended) = stop_when(lib, |_| unsafe { (script.open_attempts)() } >= 5);
+    assert_eq!(ended, Ok(()));
+    assert!(took < STOP_HEARD_WITHIN, "{took:?}");
+    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
 }

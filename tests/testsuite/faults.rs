@@ -14,7 +14,7 @@ use common::autopilot::{Controls, MockAutopilot};
 use common::msp::is_roll;
 use faithd::clock::DaemonClock;
 use faithd::daemon::{Ended, Execution, Hooks, Observation, serve};
-use faithd::source::{SourceConfig, sim::run_sim};
+use faithd::source::{SourceConfig, SourceIo, sim::run_sim};
 use faithd::supervise::{self, Faults};
 
 /// A multi-threaded runtime as `faithd run` builds it: its workers are this run's.
@@ -45,9 +45,10 @@ fn a_requested_stop_joins_every_thread_before_serve_returns() {
     let hooks = Hooks {
         clock: DaemonClock::start(),
         execution: Execution::Threads {
-            source: Box::new(move |clock, batches| {
+            source: Box::new(move |io| {
                 let _ended = SetOnDrop(flag);
-                run_sim(source_config, camera, clock, batches);
+                run_sim(source_config, camera, io);
+                Ok(())
             }),
         },
         observer: None,
@@ -83,15 +84,21 @@ fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault()
     let hooks = Hooks {
         clock: DaemonClock::start(),
         execution: Execution::Threads {
-            source: Box::new(move |clock, batches| {
+            source: Box::new(move |io: SourceIo| {
                 let (tx, rx) = std::sync::mpsc::sync_channel(256);
-                std::thread::spawn(move || run_sim(source_config, camera, clock, tx));
+                let inner = SourceIo {
+                    clock: io.clock,
+                    batches: tx,
+                    stop: io.stop.clone(),
+                };
+                std::thread::spawn(move || run_sim(source_config, camera, inner));
                 for batch in rx {
                     assert!(!trigger.load(Ordering::SeqCst), "injected camera fault");
-                    if batches.send(batch).is_err() {
-                        return;
+                    if io.batches.send(batch).is_err() {
+                        break;
                     }
                 }
+                Ok(())
             }),
         },
         observer: None,
@@ -168,7 +175,10 @@ fn a_panic_in_the_commander_mid_roll_releases_within_100_ms() {
     let hooks = Hooks {
         clock: DaemonClock::start(),
         execution: Execution::Threads {
-            source: Box::new(move |clock, batches| run_sim(source_config, camera, clock, batches)),
+            source: Box::new(move |io| {
+                run_sim(source_config, camera, io);
+                Ok(())
+            }),
         },
         observer: Some(Box::new(move |o| {
             if let Observation::ManoeuvreStarted { .. } = o {

@@ -21,6 +21,8 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use faithd::clock::DaemonClock;
+use faithd::shutdown::Shutdown;
+use faithd::source::SourceIo;
 use faithd::source::caer::{Ended, NO_CAMERA, SensorSize, SessionError, serve_device};
 use libcaer_sys::{Container, INLINE_IN_LIBCAER, LOADED_SYMBOLS, Libcaer};
 
@@ -73,7 +75,16 @@ fn a_session_on_the_real_library_without_a_camera_is_a_clean_no_camera() {
         width_px: 240,
         height_px: 180,
     };
-    let result = serve_device(&lib, &[], dvs240, DaemonClock::start(), &tx);
+    let result = serve_device(
+        &lib,
+        &[],
+        dvs240,
+        &SourceIo {
+            clock: DaemonClock::start(),
+            batches: tx.clone(),
+            stop: Shutdown::new().handle(),
+        },
+    );
     match result {
         Err(SessionError::Retry(why)) => assert_eq!(why, NO_CAMERA),
         Ok(Ended::Receiver) => {
@@ -84,7 +95,7 @@ fn a_session_on_the_real_library_without_a_camera_is_a_clean_no_camera() {
 }
 
 /// `faithd run` with `source.libcaer_path` at the real library: it loads it, says
-/// there is no camera (and keeps trying), and stops cleanly on SIGTERM.
+/// there is no camera (and keeps trying), and stops cleanly on SIGTERM, at once.
 #[test]
 fn faithd_run_loads_the_real_library_and_reports_no_camera() {
     let Some(path) = real_library() else { return };
@@ -105,15 +116,35 @@ fn faithd_run_loads_the_real_library_and_reports_no_camera() {
             t.matches(NO_CAMERA).count() >= 2 || t.contains("camera open: streaming")
         })
     });
+    let signalled = std::time::Instant::now();
     let _ = nix::sys::signal::kill(
         nix::unistd::Pid::from_raw(child.id() as i32),
         nix::sys::signal::Signal::SIGTERM,
     );
     let status = child.wait().unwrap();
+    let took = signalled.elapsed();
     let text = std::fs::read_to_string(&log).unwrap();
+    let _ = writeln!(
+        std::io::stderr(),
+        "real libcaer, no camera: SIGTERM to exit {} ms",
+        took.as_millis()
+    );
+    if std::env::var_os("FAITHD_SHOW_JOURNAL").is_some() {
+        let _ = writeln!(std::io::stderr(), "{text}");
+    }
     assert!(said, "{text}");
     assert!(text.contains("libcaer loaded"), "{text}");
     assert_eq!(status.code(), Some(0), "{text}");
+    // Waiting between attempts to open, the camera thread hears the stop at once
+    // (it used to sleep out its backoff and be given up after 1 s, never joined).
+    if !text.contains("camera open: streaming") {
+        assert!(
+            text.contains("camera: stopped while waiting to retry"),
+            "{text}"
+        );
+    }
+    assert!(!text.contains("did not stop within"), "{text}");
+    assert!(took < Duration::from_millis(1000), "{took:?}\n{text}");
 }
 
 /// This test's own C, compiled against the real headers: containers built with

@@ -176,3 +176,40 @@ fn inav_in_the_loop_without_its_sitl_is_refused_with_where_to_get_it() {
         "{err}"
     );
 }
+
+/// The README's first command, as a new user runs it: the summary on standard output,
+/// and a journal of the gate, the manoeuvre and the daemon's start and stop, not a
+/// line per window (350 of them once buried the summary above the fold).
+#[test]
+fn the_demo_prints_its_summary_and_a_journal_without_a_line_per_window() {
+    let _cpu = crate::common::cpu::heavy();
+    let dir = crate::common::TempDir::new("demo-output");
+    let out = Command::new(env!("CARGO_BIN_EXE_faithd"))
+        .args(["demo", "--plot"])
+        .arg(dir.0.join("demo.png"))
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("run faithd");
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stdout.starts_with("faithd demo: closed-loop flight at a pole\n"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("\n  result: "), "{stdout}");
+    assert_eq!(
+        stderr.matches("decision:").count(),
+        0,
+        "per-window decisions in the demo's journal:\n{stderr}"
+    );
+    assert!(stderr.contains("manoeuvre started"), "{stderr}");
+    assert!(stderr.contains("safety gate open"), "{stderr}");
+    assert!(
+        stderr.lines().count() < 80,
+        "{} journal lines:\n{stderr}",
+        stderr.lines().count()
+    );
+}

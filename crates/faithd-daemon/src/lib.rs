@@ -11,6 +11,7 @@ pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
 pub mod cycle; // the pipeline thread: a window every period, load shedding
 pub mod command; // the roll sent to iNav (MSP RC override) and read back
 pub mod record; // the flight's events, MAVLink and windows on disk, within a budget
+pub mod shutdown; // one stop for a run's tasks and threads, and the wait for them
 pub mod supervise; // heartbeats of every task for systemd's watchdog; panics
 pub mod daemon; // `faithd run`: wires the above together, the commander, shutdown
 pub mod replay; // a recorded flight through the same pipeline, off line

@@ -208,7 +208,7 @@ fn default_log_filter(command: &Command) -> &'static str {
         Command::Sim(_) => "warn",
         // The demo shows the daemon's gate and manoeuvre lines, not every decision.
         #[cfg(feature = "sim")]
-        Command::Demo(_) => "info,faithd::cycle=warn",
+        Command::Demo(_) => "info,faithd_daemon::cycle=warn",
         _ => "info",
     }
 }

@@ -109,8 +109,8 @@ pub struct CycleIo {
     pub events: Receiver<Vec<Event>>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
     pub outputs: CycleOutputs,
-    /// Set when the daemon stops: the thread ends at its next period.
-    pub stop: Arc<std::sync::atomic::AtomicBool>,
+    /// The run's stop: the driver ends at its next period once it is requested.
+    pub stop: crate::shutdown::Stop,
 }
 
 /// Where a cycle's results go.
@@ -463,7 +463,7 @@ pub struct CycleReport {
 
 /// The one pipeline driver: a window at every period's end on the events that
 /// arrived, its results published once its compute is done, load shed after an
-/// overrun, until the camera hangs up or `io.stop` is set.
+/// overrun, until the camera hangs up or `io.stop` is requested.
 pub async fn drive(mut cycle: Cycle, clock: DaemonClock, io: CycleIo, pacing: &mut impl Pacing) {
     let CycleIo {
         mut events,
@@ -475,7 +475,7 @@ pub async fn drive(mut cycle: Cycle, clock: DaemonClock, io: CycleIo, pacing: &m
     let recording = outputs.recorder.is_some();
     let mut next_us = clock.now_us() + cycle.config.period_us;
     loop {
-        if stop.load(std::sync::atomic::Ordering::Acquire) {
+        if stop.is_requested() {
             return;
         }
         let recorder = outputs.recorder.as_ref();
@@ -485,7 +485,10 @@ pub async fn drive(mut cycle: Cycle, clock: DaemonClock, io: CycleIo, pacing: &m
             })
             .await;
         if !alive {
-            tracing::warn!("event source ended; the pipeline stops");
+            // The camera ends first when the run stops: that is no news.
+            if !stop.is_requested() {
+                tracing::warn!("event source ended; the pipeline stops");
+            }
             return;
         }
         let started_us = clock.now_us();
@@ -538,7 +541,7 @@ impl Pacing for WallPacing {
 }
 
 /// Runs the pipeline on its own thread (flight) until the event source hangs up or
-/// `io.stop` is set: [`drive`] on the wall clock. The thread blocks in the camera's
+/// `io.stop` is requested: [`drive`] on the wall clock. The thread blocks in the camera's
 /// channel between windows, never in a runtime shared with the MAVLink side.
 pub fn run(pipeline_config: PipelineConfig, config: DaemonConfig, clock: DaemonClock, io: CycleIo) {
     let cycle = Cycle::new(pipeline_config, config, clock.now_us());

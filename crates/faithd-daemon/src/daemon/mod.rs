@@ -29,7 +29,8 @@ use crate::config::FaithdConfig;
 use crate::link::endpoint::Endpoint;
 use crate::link::ground::{self, GroundFeed, Notice};
 use crate::link::{self, LinkOutputs, ToAutopilot};
-use crate::source::{self, sim};
+use crate::shutdown::Shutdown;
+use crate::source::{self, SourceIo};
 use crate::{cycle, record, supervise};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::decide::Action;
@@ -80,16 +81,10 @@ pub struct RunOptions {
 }
 
 /// Why `faithd run` refuses a simulated camera without the command-line opt-in.
-pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faithd roll the vehicle at imaginary poles about every 5 s; `faithd run` takes it only with --simulated-camera on its command line (bench and tests, never the service); set source.kind = \"caer\" for the DVS240";
+pub use crate::source::SIM_SOURCE_REFUSED;
 
 /// Runs the daemon until SIGINT, SIGTERM or SIGHUP.
 pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError> {
-    if matches!(config.source, source::SourceConfig::Sim(_)) && !options.simulated_camera {
-        return Err(DaemonError::Config {
-            key: "source.kind",
-            reason: SIM_SOURCE_REFUSED.into(),
-        });
-    }
     let endpoint = config.mavlink.port();
     let msp_endpoint = config.command.msp_port();
     supervise::install_panic_hook();
@@ -102,45 +97,12 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     // action's exit.
     let signals = ShutdownSignals::install(&runtime).map_err(DaemonError::Runtime)?;
     let clock = DaemonClock::start();
-    let camera = config.pipeline.camera;
-    let source: SourceFn = match config.source.clone() {
-        source::SourceConfig::Sim(sim) => {
-            tracing::warn!(
-                "SIMULATED CAMERA (--simulated-camera): every roll faithd commands comes from generated events, not from the world; never fly like this"
-            );
-            Box::new(move |clock, batches| sim::run_sim(sim, camera, clock, batches))
-        }
-        source::SourceConfig::Caer(caer) => {
-            let path = (!caer.libcaer_path.is_empty()).then_some(caer.libcaer_path.as_str());
-            let lib = libcaer_sys::Libcaer::load(path).map_err(|e| DaemonError::Config {
-                key: "source.libcaer_path",
-                reason: format!(
-                    "{e}; install iniVation's libcaer 3 (it is not in Debian: see docs/camera.md) or name its file here"
-                ),
-            })?;
-            tracing::info!(library = %lib.path, "libcaer loaded");
-            let sensor = crate::source::caer::SensorSize {
-                width_px: camera.width_px,
-                height_px: camera.height_px,
-            };
-            let faults = faults.clone();
-            Box::new(move |clock, batches| {
-                if let Err(e) = crate::source::caer::run(
-                    &lib,
-                    caer.caer_settings,
-                    sensor,
-                    clock,
-                    batches,
-                    Duration::from_secs(2),
-                ) {
-                    faults.report(supervise::Fault::Refused {
-                        key: e.key(),
-                        reason: e.to_string(),
-                    });
-                }
-            })
-        }
-    };
+    let source = source::start(
+        &config.source,
+        config.pipeline.camera,
+        options.simulated_camera,
+    )
+    .map_err(|source::Refusal { key, reason }| DaemonError::Config { key, reason })?;
     let hooks = Hooks {
         clock,
         execution: Execution::Threads { source },
@@ -154,7 +116,7 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
         hooks,
         signals.first(),
     ));
-    // Threads still blocked in a device or a disk are not waited for.
+    // Every task and thread has ended (or was named as stuck): nothing to wait for.
     runtime.shutdown_timeout(Duration::from_millis(200));
     match ended {
         Ended::Requested("SIGHUP") => Err(DaemonError::Hangup),
@@ -164,8 +126,8 @@ pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError>
     }
 }
 
-/// Runs an event source on its own thread until the pipeline hangs up.
-pub type SourceFn = Box<dyn FnOnce(DaemonClock, SyncSender<Vec<Event>>) + Send>;
+/// Runs an event source on its own thread (the camera's work, from [`source::start`]).
+pub use crate::source::SourceFn;
 
 /// An event source as a task on the caller's runtime (a simulated world stepping in
 /// simulated time): it sends the camera's batches until the pipeline hangs up.
@@ -240,7 +202,8 @@ pub enum Observation {
 }
 
 /// The daemon proper; returns when `shutdown` completes or a fault is reported
-/// ([`supervise`]), after releasing the roll either way.
+/// ([`supervise`]), after releasing the roll either way and then stopping every task
+/// and thread it started through one [`Shutdown`].
 pub async fn serve(
     config: FaithdConfig,
     endpoint: Endpoint,
@@ -261,8 +224,93 @@ pub async fn serve(
         period_us = config.daemon.period_us,
         "faithd starting"
     );
+    let stop = Shutdown::new();
+    let mut tasks = Tasks::default();
+    let recorder = record::start(&config.record, &window_log_header(&config, clock));
+    let mut supervisor = supervise::Supervisor::new(clock);
+    let links = start_links(
+        &config,
+        endpoint,
+        clock,
+        &recorder,
+        &mut supervisor,
+        &stop,
+        &mut tasks,
+    );
+    let (pipeline, batches, cycle_io) = pipeline_channels(&links, &recorder, &stop);
+    let workers = start_workers(
+        execution,
+        &config,
+        clock,
+        (batches, cycle_io),
+        &stop,
+        &faults,
+    );
+    let stream = stream::spawn(
+        msp_endpoint.clone(),
+        stream_settings(&config),
+        clock,
+        supervisor.register("MSP roll stream"),
+    );
+    let commander_beat = supervisor.register("commander");
+    tasks.spawn("journal", &stop, report_dropped_log_lines());
+    tasks.spawn(
+        "systemd notifier",
+        &stop,
+        systemd_notifier(
+            clock,
+            links.vehicle_rx.clone(),
+            pipeline.status_rx.clone(),
+            config.gate.pipeline_stale_us,
+            supervisor,
+            faults.clone(),
+        ),
+    );
+    let StreamHandle {
+        held,
+        status: stream_rx,
+        stop: stream_stop,
+    } = stream;
+    // The commander is a task of its own: a panic in it ends that task alone, and
+    // the wait below then releases the roll like any other fault.
+    let commander_stop = stop.handle();
+    let task = commander_task(
+        commander_config(&config),
+        clock,
+        CommanderInputs {
+            vehicle_rx: links.vehicle_rx.clone(),
+            status_rx: pipeline.status_rx,
+            decision_rx: pipeline.decision_rx,
+            stream_rx: stream_rx.clone(),
+            observer,
+            heartbeat: commander_beat,
+            ground: links.ground_feed.clone(),
+        },
+        held,
+    );
+    let mut commander = tokio::spawn(async move {
+        commander_stop.until(task).await;
+    });
+    let ended = wait_for_the_end(&mut commander, shutdown, &faults).await;
+    // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
+    // centre, `release_repeats` times, each frame flushed, before faithd exits.
+    release_on_exit(&stream_stop, &stream_rx, &msp_endpoint, &config).await;
+    stop.request();
+    tasks.push("commander", commander);
+    if let Some(r) = &recorder {
+        r.finish().await;
+    }
+    stop_all(stop, tasks, workers).await;
+    tracing::info!("faithd stopped");
+    ended
+}
 
-    let window_log_header = faithd_formats::window_log::WindowLogHeader {
+/// The window log's header: what a replay needs to know about this run.
+fn window_log_header(
+    config: &FaithdConfig,
+    clock: DaemonClock,
+) -> faithd_formats::window_log::WindowLogHeader {
+    faithd_formats::window_log::WindowLogHeader {
         faithd_window_log: faithd_formats::window_log::WINDOW_LOG_VERSION,
         faithd_version: env!("CARGO_PKG_VERSION").into(),
         clock_start_unix_us: clock.start_unix_us(),
@@ -272,142 +320,171 @@ pub async fn serve(
         autopilot_component_id: Some(config.mavlink.autopilot_component_id),
         clock_sync_window: link::CLOCK_SYNC_WINDOW,
         pipeline: config.pipeline,
-    };
-    let recorder = record::start(&config.record, &window_log_header);
-    let mut supervisor = supervise::Supervisor::new(clock);
+    }
+}
+
+/// What the links to the autopilot (and the ground station) hand the daemon.
+struct Links {
+    vehicle_rx: watch::Receiver<VehicleState>,
+    attitude: Arc<Mutex<AttitudeLog>>,
+    /// The pipeline's running totals, which the ground station plots.
+    telemetry: watch::Sender<PipelineTelemetry>,
+    ground_feed: GroundFeed,
+    /// faithd sends only its own HEARTBEAT on the MAVLink link: nothing else queues,
+    /// but the queue stays open for the run.
+    _to_autopilot: mpsc::Sender<mavlink::dialects::common::MavMessage>,
+}
+
+/// Starts the MAVLink link and, when configured, the ground station's: bystanders
+/// fed through queues that never make the link or the commander wait.
+fn start_links(
+    config: &FaithdConfig,
+    endpoint: Endpoint,
+    clock: DaemonClock,
+    recorder: &Option<record::Recorder>,
+    supervisor: &mut supervise::Supervisor,
+    stop: &Shutdown,
+    tasks: &mut Tasks,
+) -> Links {
     let (vehicle_tx, vehicle_rx) = watch::channel(VehicleState::default());
     let attitude = Arc::new(Mutex::new(AttitudeLog::default()));
-    // faithd sends only its own HEARTBEAT on the MAVLink link; nothing else queues.
-    let (_mav_out_tx, mav_out_rx) = mpsc::channel(1);
-    let (telemetry_tx, telemetry_rx) = watch::channel(PipelineTelemetry::default());
-    // The ground station link, when configured: a bystander fed through queues that
-    // never make the link or the commander wait.
-    let (ground_feed, from_ground, ground_task) = match config.ground.port() {
+    let (to_autopilot, own) = mpsc::channel(1);
+    let (telemetry, telemetry_rx) = watch::channel(PipelineTelemetry::default());
+    let (ground_feed, from_ground) = match config.ground.port() {
         Some(port) => {
             let (feed, io, from_ground) = ground::queues(&config.ground, telemetry_rx);
             tracing::info!(ground = %port, "ground station link configured");
-            let task = tokio::spawn(ground::run(
-                config.ground.clone(),
-                config.mavlink.clone(),
-                port,
-                clock,
-                io,
-            ));
-            (feed, from_ground, Some(task))
+            let (ground, mavlink) = (config.ground.clone(), config.mavlink.clone());
+            let task = ground::run(ground, mavlink, port, clock, io);
+            tasks.spawn("ground station link", stop, task);
+            (feed, from_ground)
         }
-        None => (GroundFeed::default(), None, None),
+        None => (GroundFeed::default(), None),
     };
-    let link_task = tokio::spawn(link::run(
-        config.mavlink.clone(),
-        endpoint,
-        clock,
-        LinkOutputs {
-            vehicle: vehicle_tx,
-            attitude: attitude.clone(),
-            recorder: recorder.clone(),
-            ground: ground_feed.clone(),
-        },
-        ToAutopilot {
-            own: mav_out_rx,
-            from_ground,
-        },
-        supervisor.register("autopilot link"),
-    ));
-
-    let (status_tx, status_rx) = watch::channel(PipelineStatus::default());
-    let (decision_tx, decision_rx) = watch::channel(None);
-    let (batch_tx, batch_rx) = std::sync::mpsc::sync_channel(256);
-    let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
-    let stop_pipeline = Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let cycle_io = cycle::CycleIo {
-        events: batch_rx,
+    let outputs = LinkOutputs {
+        vehicle: vehicle_tx,
+        attitude: attitude.clone(),
+        recorder: recorder.clone(),
+        ground: ground_feed.clone(),
+    };
+    let to = ToAutopilot { own, from_ground };
+    let beat = supervisor.register("autopilot link");
+    let task = link::run(config.mavlink.clone(), endpoint, clock, outputs, to, beat);
+    tasks.spawn("autopilot link", stop, task);
+    Links {
+        vehicle_rx,
         attitude,
+        telemetry,
+        ground_feed,
+        _to_autopilot: to_autopilot,
+    }
+}
+
+/// The commander's ends of the pipeline's outputs.
+struct PipelineEnds {
+    status_rx: watch::Receiver<PipelineStatus>,
+    decision_rx: watch::Receiver<Option<cycle::RollDecision>>,
+}
+
+/// The channels between the camera, the pipeline and the commander.
+fn pipeline_channels(
+    links: &Links,
+    recorder: &Option<record::Recorder>,
+    stop: &Shutdown,
+) -> (PipelineEnds, SyncSender<Vec<Event>>, cycle::CycleIo) {
+    let (status, status_rx) = watch::channel(PipelineStatus::default());
+    let (decisions, decision_rx) = watch::channel(None);
+    let (batches, events) = std::sync::mpsc::sync_channel(256);
+    let cycle_io = cycle::CycleIo {
+        events,
+        attitude: links.attitude.clone(),
         outputs: cycle::CycleOutputs {
-            status: status_tx,
-            decisions: decision_tx,
-            telemetry: telemetry_tx,
+            status,
+            decisions,
+            telemetry: links.telemetry.clone(),
             recorder: recorder.clone(),
         },
-        stop: stop_pipeline.clone(),
+        stop: stop.handle(),
     };
-    let workers = match execution {
+    let ends = PipelineEnds {
+        status_rx,
+        decision_rx,
+    };
+    (ends, batches, cycle_io)
+}
+
+/// Starts the camera and the pipeline: threads in flight, tasks in a simulated
+/// flight. A camera that contradicts the configuration is reported as a refusal.
+fn start_workers(
+    execution: Execution,
+    config: &FaithdConfig,
+    clock: DaemonClock,
+    (batches, cycle_io): (SyncSender<Vec<Event>>, cycle::CycleIo),
+    stop: &Shutdown,
+    faults: &supervise::Faults,
+) -> Workers {
+    let (pipeline_config, daemon_config) = (config.pipeline, config.daemon);
+    match execution {
         Execution::Threads { source } => {
-            let source_faults = faults.clone();
-            let source_thread = std::thread::Builder::new()
-                .name("faithd-source".into())
-                .spawn(move || {
-                    let _run = source_faults.enter();
-                    source(clock, batch_tx)
-                })
-                .expect("spawn source thread");
-            let pipeline_faults = faults.clone();
-            let pipeline_thread = std::thread::Builder::new()
-                .name("faithd-pipeline".into())
-                .spawn(move || {
-                    let _run = pipeline_faults.enter();
-                    cycle::run(pipeline_config, daemon_config, clock, cycle_io)
-                })
-                .expect("spawn pipeline thread");
-            Workers::Threads([("pipeline", pipeline_thread), ("camera", source_thread)])
+            let io = SourceIo {
+                clock,
+                batches,
+                stop: stop.handle(),
+            };
+            let refusals = faults.clone();
+            let camera = spawn_thread("faithd-source", faults, move || {
+                if let Err(source::Refusal { key, reason }) = source(io) {
+                    refusals.report(supervise::Fault::Refused { key, reason });
+                }
+            });
+            let pipeline = spawn_thread("faithd-pipeline", faults, move || {
+                cycle::run(pipeline_config, daemon_config, clock, cycle_io)
+            });
+            Workers::Threads([("pipeline", pipeline), ("camera", camera)])
         }
         Execution::Tasks { source, pipeline } => {
-            let world = tokio::spawn(source(clock, batch_tx));
+            let world_stop = stop.handle();
+            let world = tokio::spawn(async move {
+                world_stop.until(source(clock, batches)).await;
+            });
             let pipeline = tokio::spawn(pipeline(pipeline_config, daemon_config, clock, cycle_io));
-            Workers::Tasks([pipeline, world])
+            Workers::Tasks([("pipeline", pipeline), ("camera", world)])
         }
-    };
+    }
+}
 
-    let stream = stream::spawn(
-        msp_endpoint.clone(),
-        stream_settings(&config),
-        clock,
-        supervisor.register("MSP roll stream"),
-    );
-    let commander_beat = supervisor.register("commander");
-    let log_task = tokio::spawn(report_dropped_log_lines());
+/// A named thread inside this run's faults: a panic on it ends the run.
+fn spawn_thread(
+    name: &str,
+    faults: &supervise::Faults,
+    work: impl FnOnce() + Send + 'static,
+) -> std::thread::JoinHandle<()> {
+    let faults = faults.clone();
+    std::thread::Builder::new()
+        .name(name.into())
+        .spawn(move || {
+            let _run = faults.enter();
+            work()
+        })
+        .unwrap_or_else(|e| panic!("cannot start the {name} thread: {e}"))
+}
 
-    let notifier_task = tokio::spawn(systemd_notifier(
-        clock,
-        vehicle_rx.clone(),
-        status_rx.clone(),
-        config.gate.pipeline_stale_us,
-        supervisor,
-        faults.clone(),
-    ));
-    // The commander is a task of its own: a panic in it ends that task alone, and
-    // the select below then releases the roll like any other fault.
-    let StreamHandle {
-        held,
-        status: stream_rx,
-        stop: stream_stop,
-    } = stream;
-    let mut commander = tokio::spawn(commander_task(
-        commander_config(&config),
-        clock,
-        CommanderInputs {
-            vehicle_rx,
-            status_rx,
-            decision_rx,
-            stream_rx: stream_rx.clone(),
-            observer,
-            heartbeat: commander_beat,
-            ground: ground_feed,
-        },
-        held,
-    ));
+/// Waits for what ends the run: the commander's end (a fault), the shutdown
+/// request, or a fault reported by any part.
+async fn wait_for_the_end(
+    commander: &mut tokio::task::JoinHandle<()>,
+    shutdown: impl std::future::Future<Output = &'static str>,
+    faults: &supervise::Faults,
+) -> Ended {
     // Every select in the daemon is biased: branches are polled in the order
     // written, so a simulated flight (one thread, simulated time) takes the same
     // path on every run. Rare events come first, so a busy stream cannot starve them.
-    let mut commander_done = false;
-    let ended = tokio::select! {
+    tokio::select! {
         biased;
-        ended = &mut commander => {
-            commander_done = true;
-            Ended::Fault(match ended {
-                Err(e) if e.is_panic() => "the commander panicked".into(),
-                _ => "the commander ended".into(),
-            })
-        }
+        ended = commander => Ended::Fault(match ended {
+            Err(e) if e.is_panic() => "the commander panicked".into(),
+            _ => "the commander ended".into(),
+        }),
         why = shutdown => {
             tracing::info!("shutdown requested ({why})");
             Ended::Requested(why)
@@ -422,66 +499,82 @@ pub async fn serve(
                 Ended::Refused { key, reason }
             }
         }
-    };
-    // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
-    // centre, `release_repeats` times, each frame flushed, before faithd exits.
-    release_on_exit(&stream_stop, &stream_rx, &msp_endpoint, &config).await;
-    if !commander_done {
-        commander.abort();
-        let _ = commander.await;
     }
-    if let Some(r) = &recorder {
-        r.finish().await;
+}
+
+/// How long the tasks and threads have, once asked, to reach their safe states.
+const STOP_WITHIN: Duration = Duration::from_secs(1);
+
+/// Waits for every task and thread to have stopped (each dropped its [`Stop`]) and
+/// joins them; one still running after [`STOP_WITHIN`] (a thread blocked in a
+/// device) is named and not waited for.
+async fn stop_all(stop: Shutdown, tasks: Tasks, workers: Workers) {
+    let all_stopped = stop.stopped(STOP_WITHIN).await;
+    for (name, task) in tasks.0 {
+        if all_stopped || task.is_finished() {
+            let _ = task.await;
+        } else {
+            tracing::warn!("the {name} task did not stop within 1 s; not waited for");
+        }
     }
-    // Every task and thread is ended and joined before `serve` returns: the
-    // background tasks are cancelled, the pipeline is told to stop, and the camera
-    // thread ends when the pipeline's end of its channel is gone.
-    for task in [link_task, log_task, notifier_task]
-        .into_iter()
-        .chain(ground_task)
-    {
-        task.abort();
-        let _ = task.await;
+    workers.join(all_stopped).await;
+}
+
+/// The tasks of a run, by name, each ended by the run's stop.
+#[derive(Default)]
+struct Tasks(Vec<(&'static str, tokio::task::JoinHandle<()>)>);
+
+impl Tasks {
+    /// Spawns `work` until the run stops: these tasks hold nothing that needs more
+    /// than dropping (a port closes, a timer ends), so where they wait is a safe
+    /// place to end.
+    fn spawn(
+        &mut self,
+        name: &'static str,
+        stop: &Shutdown,
+        work: impl std::future::Future<Output = ()> + Send + 'static,
+    ) {
+        let stop = stop.handle();
+        let task = tokio::spawn(async move {
+            stop.until(work).await;
+        });
+        self.0.push((name, task));
     }
-    stop_pipeline.store(true, std::sync::atomic::Ordering::Release);
-    workers.join().await;
-    tracing::info!("faithd stopped");
-    ended
+
+    fn push(&mut self, name: &'static str, task: tokio::task::JoinHandle<()>) {
+        self.0.push((name, task));
+    }
 }
 
 /// The camera and the pipeline: threads in flight, tasks in a simulated flight.
 enum Workers {
     Threads([(&'static str, std::thread::JoinHandle<()>); 2]),
-    Tasks([tokio::task::JoinHandle<()>; 2]),
+    Tasks([(&'static str, tokio::task::JoinHandle<()>); 2]),
 }
 
 impl Workers {
-    /// Waits for the camera and the pipeline to end (the pipeline was told to stop;
-    /// the camera ends when the pipeline's end of its channel is gone). A thread
-    /// still blocked in a device after 1 s is named and not waited for.
-    async fn join(self) {
+    /// Joins the camera and the pipeline once they have stopped; one that has not
+    /// (`all_stopped` false and still running) is named and not waited for.
+    async fn join(self, all_stopped: bool) {
         match self {
             Workers::Threads(threads) => {
-                let deadline = tokio::time::Instant::now() + Duration::from_secs(1);
-                while threads.iter().any(|(_, t)| !t.is_finished())
-                    && tokio::time::Instant::now() < deadline
-                {
-                    tokio::time::sleep(Duration::from_millis(5)).await;
-                }
                 for (name, thread) in threads {
-                    if thread.is_finished() {
+                    if all_stopped || thread.is_finished() {
                         let _ = thread.join();
                     } else {
                         tracing::warn!(
-                            "the {name} thread did not end within 1 s (blocked in a device?); not waited for"
+                            "the {name} thread did not stop within 1 s (blocked in a device?); not waited for"
                         );
                     }
                 }
             }
             Workers::Tasks(tasks) => {
-                for task in tasks {
-                    task.abort();
-                    let _ = task.await;
+                for (name, task) in tasks {
+                    if all_stopped || task.is_finished() {
+                        let _ = task.await;
+                    } else {
+                        tracing::warn!("the {name} task did not stop within 1 s; not waited for");
+                    }
                 }
             }
         }

@@ -12,6 +12,17 @@
 //! releases), and keeps trying to reopen it with backoff; each session maps its clock
 //! afresh.
 //!
+//! The camera thread never parks inside libcaer: data exchange is non-blocking and the
+//! thread waits between empty reads on the run's [`Stop`], 1 ms at a time as libcaer's
+//! own blocking mode does (`src/data_exchange.h`, `dataExchangeGet`: a 1 ms
+//! `thrd_sleep`, then retry). A blocking read hears nothing for the 1.11-1.22 s it
+//! takes to give up without data (measured on libcaer 3.3.x), and calling
+//! `caerDeviceDataStop` from the stopping thread instead is not safe: it empties and
+//! frees the ring buffer (`davisDataStop` -> `dataExchangeBufferEmpty`,
+//! `freeAllDataMemory` in `src/davis.c`) that a concurrent `caerDeviceDataGet` reads.
+//! So a stop is heard within about a millisecond in every state: retrying, streaming,
+//! in a dark scene; the device is then stopped (if started) and closed.
+//!
 //! The order of calls follows libcaer 3.x's DAVIS driver (`src/davis.c`, 3.3.9):
 //! `caerDeviceDataStart` writes every run flag on (DVS, APS, IMU, external input)
 //! once its transfers run, so whatever is set before it about those is undone;
@@ -25,6 +36,8 @@ use std::time::Duration;
 use libcaer_sys::{self as caer, Container, Libcaer};
 
 use crate::clock::DaemonClock;
+use crate::shutdown::Stop;
+use crate::source::SourceIo;
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
 use faithd_core::event::{Event, Polarity};
 
@@ -107,7 +120,9 @@ impl CameraError {
 /// Why a device session ended.
 #[derive(Debug, PartialEq, Eq)]
 pub enum Ended {
-    /// The pipeline hung up: the daemon is stopping.
+    /// The daemon asked the camera to stop.
+    Stopped,
+    /// The pipeline hung up.
     Receiver,
     /// The device went away.
     DeviceLost,
@@ -135,32 +150,92 @@ impl std::fmt::Display for SessionError {
 /// What `serve_device` says when libcaer finds no camera to open.
 pub const NO_CAMERA: &str = "no DAVIS camera could be opened (none on USB, or no permission on its device: see the udev rules)";
 
-/// Runs until the pipeline hangs up (`Ok`), reopening the device whenever it is lost,
-/// or until the camera or a setting contradicts the configuration (`Err`: a
-/// configuration error, which no retry mends).
+/// `kind = "caer"`: loads libcaer (the configured file, or the loader's search for
+/// libcaer.so.3) and returns the camera thread's work, or the key to change.
+pub fn prepare(
+    config: super::CaerSource,
+    camera: faithd_core::camera::CameraIntrinsics,
+) -> Result<super::SourceFn, super::Refusal> {
+    let path = (!config.libcaer_path.is_empty()).then_some(config.libcaer_path.as_str());
+    let lib = Libcaer::load(path).map_err(|e| super::Refusal {
+        key: "source.libcaer_path",
+        reason: format!(
+            "{e}; install iniVation's libcaer 3 (it is not in Debian: see docs/camera.md) or name its file here"
+        ),
+    })?;
+    tracing::info!(library = %lib.path, "libcaer loaded");
+    let sensor = SensorSize {
+        width_px: camera.width_px,
+        height_px: camera.height_px,
+    };
+    Ok(Box::new(move |io| {
+        run(
+            &lib,
+            config.caer_settings,
+            sensor,
+            &io,
+            RetryTiming::DEFAULT,
+        )
+        .map_err(|e| super::Refusal {
+            key: e.key(),
+            reason: e.to_string(),
+        })
+    }))
+}
+
+/// How soon a camera that could not be opened is tried again: the first wait, doubled
+/// after every failure up to the longest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RetryTiming {
+    pub first: Duration,
+    pub longest: Duration,
+}
+
+impl RetryTiming {
+    /// A camera plugged in is found within 2 s; an absent one costs an open every 2 s.
+    pub const DEFAULT: RetryTiming = RetryTiming {
+        first: Duration::from_millis(50),
+        longest: Duration::from_secs(2),
+    };
+}
+
+/// How long the camera thread waits after an empty read before the next: libcaer's
+/// own pace in blocking mode (`dataExchangeGet`'s 1 ms sleep), so events wait no
+/// longer than they would there, and a stop is heard at once.
+const NO_DATA_WAIT: Duration = Duration::from_millis(1);
+
+/// Runs until the daemon stops it or the pipeline hangs up (`Ok`), reopening the
+/// device whenever it is lost, or until the camera or a setting contradicts the
+/// configuration (`Err`: a configuration error, which no retry mends).
 pub fn run(
     lib: &Libcaer,
     settings: Vec<Setting>,
     expected: SensorSize,
-    clock: DaemonClock,
-    batches: SyncSender<Vec<Event>>,
-    max_backoff: Duration,
+    io: &SourceIo,
+    retry: RetryTiming,
 ) -> Result<(), CameraError> {
-    let mut backoff = Duration::from_millis(50);
+    let mut backoff = retry.first;
     loop {
-        match serve_device(lib, &settings, expected, clock, &batches) {
+        match serve_device(lib, &settings, expected, io) {
+            Ok(Ended::Stopped) => {
+                tracing::info!("camera stopped and closed");
+                return Ok(());
+            }
             Ok(Ended::Receiver) => return Ok(()),
             Ok(Ended::DeviceLost) => {
                 tracing::error!("camera lost: no events until it is back; reopening");
-                backoff = Duration::from_millis(50);
+                backoff = retry.first;
             }
             Err(SessionError::Refused(e)) => return Err(e),
             Err(SessionError::Retry(why)) => {
                 tracing::warn!("camera: {why}; retry in {} ms", backoff.as_millis())
             }
         }
-        std::thread::sleep(backoff);
-        backoff = (backoff * 2).min(max_backoff);
+        if io.stop.wait_timeout(backoff) {
+            tracing::info!("camera: stopped while waiting to retry");
+            return Ok(());
+        }
+        backoff = (backoff * 2).min(retry.longest);
     }
 }
 
@@ -227,19 +302,19 @@ impl Drop for Device<'_> {
     }
 }
 
-/// Opens, configures and streams one device session.
+/// Opens, configures and streams one device session; the device is stopped (when it
+/// was started) and closed before this returns, whatever the reason.
 pub fn serve_device(
     lib: &Libcaer,
     settings: &[Setting],
     expected: SensorSize,
-    clock: DaemonClock,
-    batches: &SyncSender<Vec<Event>>,
+    io: &SourceIo,
 ) -> Result<Ended, SessionError> {
     let mut device = Device::open(lib).ok_or_else(|| SessionError::Retry(NO_CAMERA.into()))?;
     check_size(&device, expected)?;
     start(&mut device, settings)?;
     tracing::info!("camera open: streaming");
-    stream(&device, clock, batches)
+    stream(&device, io.clock, &io.batches, &io.stop)
 }
 
 /// Refuses a camera whose DVS size is not the configured one. A size libcaer cannot
@@ -266,7 +341,7 @@ fn check_size(device: &Device<'_>, expected: SensorSize) -> Result<(), SessionEr
     Ok(())
 }
 
-/// Sends libcaer's defaults, asks for blocking data exchange, starts the transfer,
+/// Sends libcaer's defaults, asks for non-blocking data exchange, starts the transfer,
 /// then turns off what DataStart turned on and faithd does not use
 /// ([`OWN_SETTINGS`]) and applies the configured settings, in that order, so that
 /// nothing DataStart writes undoes them.
@@ -275,13 +350,15 @@ fn start(device: &mut Device<'_>, settings: &[Setting]) -> Result<(), SessionErr
     if !unsafe { (device.lib.caerDeviceSendDefaultConfig)(device.handle) } {
         return Err(SessionError::Retry("default configuration refused".into()));
     }
-    let blocking = (
+    let non_blocking = (
         caer::CAER_HOST_CONFIG_DATAEXCHANGE,
         caer::CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING,
-        1,
+        0,
     );
-    if !device.set(blocking) {
-        return Err(SessionError::Retry("blocking data exchange refused".into()));
+    if !device.set(non_blocking) {
+        return Err(SessionError::Retry(
+            "non-blocking data exchange refused".into(),
+        ));
     }
     if !device.start() {
         return Err(SessionError::Retry("data transfer could not start".into()));
@@ -311,21 +388,25 @@ fn stream(
     device: &Device<'_>,
     clock: DaemonClock,
     batches: &SyncSender<Vec<Event>>,
+    stop: &Stop,
 ) -> Result<Ended, SessionError> {
     let mut device_clock = DeviceClock::new(DeviceClockConfig::default());
     let mut polarity = Vec::new();
     loop {
+        if stop.is_requested() {
+            return Ok(Ended::Stopped);
+        }
         // SAFETY: the handle is open and streaming; the container is ours to free.
         let raw = unsafe { (device.lib.caerDeviceDataGet)(device.handle) };
         // SAFETY: libcaer allocated it (calloc) and handed it over.
         let Some(container) = (unsafe { Container::from_raw(raw) }) else {
-            // NULL: no data for about a second (blocking mode gives up), or the
-            // transfers stopped because the device went away; libcaer's USB thread
-            // then calls the shutdown callback, maybe a little after.
+            // NULL: nothing ready yet (non-blocking), or the transfers stopped
+            // because the device went away; libcaer's USB thread then calls the
+            // shutdown callback, maybe a little after.
             if device.lost() {
                 return Ok(Ended::DeviceLost);
             }
-            std::thread::sleep(Duration::from_micros(500));
+            stop.wait_timeout(NO_DATA_WAIT);
             continue;
         };
         // Taken before parsing: the nearer to the arrival, the lower the envelope.

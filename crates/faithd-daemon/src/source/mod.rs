@@ -1,15 +1,77 @@
 //! Where the daemon's events come from (`[source]`): the DVS240 through iniVation's
 //! libcaer with the estimate of its clock against the daemon's, or the simulated
 //! camera of the bench. Recorded files are read by `faithd_formats::events`.
+//!
+//! The daemon knows no camera: it calls [`start`] with `[source]` and runs what it
+//! gets on a thread of its own with a [`SourceIo`]. A new camera family is one module
+//! here (its library loading, size check, retry timing and messages), one arm of
+//! [`SourceConfig`] and one arm of [`start`].
 
 pub mod caer;
 pub mod device_clock;
 pub mod sim;
 
+use std::sync::mpsc::SyncSender;
+
 use serde::{Deserialize, Serialize};
 
+use crate::clock::DaemonClock;
+use crate::shutdown::Stop;
+use faithd_core::camera::CameraIntrinsics;
+use faithd_core::event::Event;
 use faithd_core::invalid::{Invalid, check};
 pub use sim::SimSource;
+
+/// What a camera thread is handed: the daemon's clock, the pipeline's end of the
+/// channel, and the run's stop, which it hears wherever it waits.
+pub struct SourceIo {
+    pub clock: DaemonClock,
+    pub batches: SyncSender<Vec<Event>>,
+    pub stop: Stop,
+}
+
+/// A started event source: runs on the calling thread until the run stops or the
+/// pipeline hangs up (`Ok`), or until the camera contradicts the configuration.
+pub type SourceFn = Box<dyn FnOnce(SourceIo) -> Result<(), Refusal> + Send>;
+
+/// A source that cannot be used as configured: the key to change and why (the
+/// daemon stops with status 2, and systemd does not restart it).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("`{key}`: {reason}")]
+pub struct Refusal {
+    pub key: &'static str,
+    pub reason: String,
+}
+
+/// Why `faithd run` refuses a simulated camera without the command-line opt-in.
+pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faithd roll the vehicle at imaginary poles about every 5 s; `faithd run` takes it only with --simulated-camera on its command line (bench and tests, never the service); set source.kind = \"caer\" for the DVS240";
+
+/// Makes the configured source ready to run: loads its library and says which,
+/// or refuses it with the key to change. `simulated_allowed` is `faithd run
+/// --simulated-camera`: without it a simulated camera is refused, since a real
+/// vehicle would roll at imaginary poles.
+pub fn start(
+    config: &SourceConfig,
+    camera: CameraIntrinsics,
+    simulated_allowed: bool,
+) -> Result<SourceFn, Refusal> {
+    match config.clone() {
+        SourceConfig::Sim(_) if !simulated_allowed => Err(Refusal {
+            key: "source.kind",
+            reason: SIM_SOURCE_REFUSED.into(),
+        }),
+        SourceConfig::Sim(sim) => {
+            tracing::warn!(
+                "SIMULATED CAMERA (--simulated-camera): every roll faithd commands comes from generated events, not from the world; never fly like this"
+            );
+            Ok(Box::new(move |io| {
+                sim::run_sim(sim, camera, io);
+                Ok(())
+            }))
+        }
+        SourceConfig::Caer(caer) => caer::prepare(caer, camera),
+    }
+}
 
 /// Where events come from: `[source]`, a `kind` and that kind's own settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -41,12 +103,13 @@ pub struct CaerSource {
 }
 
 /// Settings faithd makes itself, which an entry of `caer_settings` must not undo:
-/// blocking data exchange (the camera thread waits in libcaer, not in a spin) and the
-/// APS and IMU off (faithd discards frames and IMU samples).
+/// non-blocking data exchange (the camera thread waits on the run's stop between
+/// reads, never inside libcaer, so that it hears a stop) and the APS and IMU off
+/// (faithd discards frames and IMU samples).
 const OWNED_BY_FAITHD: [((i8, u8), &str); 5] = [
     (
         (-2, 1),
-        "is CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING, which faithd sets itself",
+        "is CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING, which faithd sets itself (off, so that the camera thread hears a stop)",
     ),
     (
         (2, 4),

@@ -2,12 +2,12 @@
 //! clock. The camera for bench tests without hardware; `faithd run` takes it only
 //! with `--simulated-camera`.
 
-use std::sync::mpsc::{SyncSender, TrySendError};
+use std::sync::mpsc::TrySendError;
 use std::time::Duration;
 
 use serde::{Deserialize, Serialize};
 
-use crate::clock::DaemonClock;
+use crate::source::SourceIo;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
 use faithd_core::synth::{LoomingEdges, looming_edge_events};
@@ -35,13 +35,14 @@ impl Default for SimSource {
 /// Batches are handed over this often.
 const BATCH_PERIOD: Duration = Duration::from_millis(2);
 
-/// Runs the sim source on the calling thread until the receiver is gone.
-pub fn run_sim(
-    config: SimSource,
-    camera: CameraIntrinsics,
-    clock: DaemonClock,
-    batches: SyncSender<Vec<Event>>,
-) {
+/// Runs the sim source on the calling thread until the run stops or the receiver is
+/// gone.
+pub fn run_sim(config: SimSource, camera: CameraIntrinsics, io: SourceIo) {
+    let SourceIo {
+        clock,
+        batches,
+        stop,
+    } = io;
     let mut scene = LoomingEdges::pole_ahead((128.0, 86.0));
     scene.duration_s = 0.8;
     scene.noise_rate_hz = 0.5;
@@ -61,8 +62,7 @@ pub fn run_sim(
     let mut next = 0usize;
     let mut dropped = 0u64;
     let mut drop_log = crate::logging::Throttle::new(5_000_000);
-    loop {
-        std::thread::sleep(BATCH_PERIOD);
+    while !stop.wait_timeout(BATCH_PERIOD) {
         let now_us = clock.now_us();
         let mut batch = Vec::new();
         while now_us >= start_us {

@@ -504,8 +504,9 @@ impl Daemon {
         let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
         let source = {
             let (spec, stop) = (spec.clone(), camera_stop.clone());
-            Box::new(move |clock: DaemonClock, batches| {
-                line_camera(&spec, &world, clock, batches, &stop)
+            Box::new(move |io: faithd_daemon::source::SourceIo| {
+                line_camera(&spec, &world, io.clock, io.batches, &stop);
+                Ok(())
             })
         };
         let observer = {
