@@ -271,30 +271,13 @@ pub fn replay_window_log(
     out: &mut dyn Write,
     watch: Watch<'_>,
 ) -> Result<LogReplay, ReplayError> {
-    let log_err = |line: usize, what: String| ReplayError::WindowLog {
-        path: log_path.display().to_string(),
-        line,
-        what,
-    };
-    let file = std::fs::File::open(log_path).map_err(|source| ReplayError::Io {
-        path: log_path.display().to_string(),
-        source,
-    })?;
-    let mut lines = std::io::BufReader::new(file).lines().enumerate().peekable();
-    let header_text = match lines.next() {
-        Some((_, line)) => line.map_err(|source| ReplayError::Io {
-            path: log_path.display().to_string(),
-            source,
-        })?,
-        None => return Err(log_err(1, "empty file: no header line".into())),
-    };
-    let header: WindowLogHeader =
-        serde_json::from_str(&header_text).map_err(|e| log_err(1, format!("header: {e}")))?;
-    let as_run = header.pipeline_as_run().map_err(|e| log_err(1, e))?;
+    let mut log = WindowLogLines::open(log_path)?;
+    let header = log.header()?;
+    let as_run = header.pipeline_as_run().map_err(|e| log.error(1, e))?;
     // The daemon's own checks, before anything is sized from it.
     as_run
         .validate()
-        .map_err(|inv| log_err(1, format!("header: `{}` {}", inv.key, inv.reason)))?;
+        .map_err(|inv| log.error(1, format!("header: `{}` {}", inv.key, inv.reason)))?;
     if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
         tracing::info!(
             version = header.faithd_window_log,
@@ -306,88 +289,23 @@ pub fn replay_window_log(
         None => AttitudeArrivals::default(),
     };
     let config = config.unwrap_or(as_run);
-    let events_err = events_error(events_path);
-    let mut reader = open_events(events_path).map_err(events_err)?;
+    let mut events = RecordedEvents::open(events_path)?;
     let mut pipeline = Pipeline::new(config);
-    let mut pending: Vec<Event> = Vec::new();
-    let mut batch = Vec::new();
     let mut samples = Vec::new();
-    let mut seen = 0;
     let mut result = LogReplay::default();
-    while let Some((index, line)) = lines.next() {
-        let line_no = index + 1;
-        let text = line.map_err(|source| ReplayError::Io {
-            path: log_path.display().to_string(),
-            source,
-        })?;
-        let recorded: serde_json::Value = match serde_json::from_str(&text) {
-            Ok(v) => v,
-            Err(e) if lines.peek().is_none() && !ends_with_newline(log_path) => {
-                // The daemon was killed (or lost power) while writing this line.
-                tracing::warn!(
-                    line = line_no,
-                    "the window log ends in a line cut short ({e}): the recording stopped mid-write; replayed up to the line before"
-                );
-                break;
-            }
-            Err(e) => return Err(log_err(line_no, e.to_string())),
-        };
-        let window =
-            RecordedWindow::deserialize(&recorded).map_err(|e| log_err(line_no, e.to_string()))?;
-        // Load shedding only ever lowers these from the configured values.
-        let max_fits = window.max_fits.unwrap_or(config.flow.max_fits_per_window);
-        if window.max_vectors > config.max_vectors
-            || window.foe_iterations > config.faith.iterations
-            || max_fits > config.flow.max_fits_per_window
-        {
-            return Err(log_err(
-                line_no,
-                format!(
-                    "max_vectors {} / foe_iterations {} / max_fits {} exceed the configuration's {} / {} / {}",
-                    window.max_vectors,
-                    window.foe_iterations,
-                    max_fits,
-                    config.max_vectors,
-                    config.faith.iterations,
-                    config.flow.max_fits_per_window
-                ),
-            ));
-        }
-        if window.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64 {
-            return Err(log_err(
-                line_no,
-                format!("window time {} us beyond +-2^53 us", window.t_us),
-            ));
-        }
-        while pending.len() < window.events {
-            if !reader.next_batch(&mut batch).map_err(events_err)? {
-                return Err(log_err(
-                    line_no,
-                    format!(
-                        "the window at {} us took {} events, but the event recording ends \
-                         {} events short",
-                        window.t_us,
-                        window.events,
-                        window.events - pending.len()
-                    ),
-                ));
-            }
-            check_times(events_path, &batch, &mut seen)?;
-            pending.extend_from_slice(&batch);
-        }
+    while let Some((line_no, recorded, window)) = log.next_window()? {
+        let max_fits = check_window(&window, &config).map_err(|e| log.error(line_no, e))?;
+        let taken = events
+            .take(window.events)
+            .map_err(|e| e.or_short(|short| log.error(line_no, ends_short(&window, short))))?;
         pipeline.set_max_vectors(window.max_vectors);
         pipeline.set_foe_iterations(window.foe_iterations);
         pipeline.set_max_fits(max_fits);
         attitude.window(window.t_us, config.history_us, &mut samples);
-        let report = pipeline.process_window(
-            &pending[..window.events],
-            &samples,
-            window.t_us,
-            &mut NoClock,
-        );
-        watch(&pending[..window.events], &report).map_err(ReplayError::Watch)?;
+        let report = pipeline.process_window(taken, &samples, window.t_us, &mut NoClock);
+        watch(taken, &report).map_err(ReplayError::Watch)?;
         let replayed = WindowLine::from_report(window.t_us, window.events, &report);
-        pending.drain(..window.events);
+        events.consume(window.events);
         result.windows += 1;
         let replayed_json =
             serde_json::to_value(&replayed).map_err(|e| ReplayError::Output(e.into()))?;
@@ -398,6 +316,167 @@ pub fn replay_window_log(
         print_line(&replayed, json, out)?;
     }
     Ok(result)
+}
+
+/// Refuses a recorded window the configuration could not have produced (load
+/// shedding only ever lowers its limits) or whose time is out of range; its fit
+/// limit otherwise.
+fn check_window(window: &RecordedWindow, config: &PipelineConfig) -> Result<usize, String> {
+    let max_fits = window.max_fits.unwrap_or(config.flow.max_fits_per_window);
+    if window.max_vectors > config.max_vectors
+        || window.foe_iterations > config.faith.iterations
+        || max_fits > config.flow.max_fits_per_window
+    {
+        return Err(format!(
+            "max_vectors {} / foe_iterations {} / max_fits {} exceed the configuration's {} / {} / {}",
+            window.max_vectors,
+            window.foe_iterations,
+            max_fits,
+            config.max_vectors,
+            config.faith.iterations,
+            config.flow.max_fits_per_window
+        ));
+    }
+    if window.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64 {
+        return Err(format!("window time {} us beyond +-2^53 us", window.t_us));
+    }
+    Ok(max_fits)
+}
+
+/// Why the events ran out for `window`.
+fn ends_short(window: &RecordedWindow, short: usize) -> String {
+    format!(
+        "the window at {} us took {} events, but the event recording ends {short} events short",
+        window.t_us, window.events
+    )
+}
+
+/// A window log read line by line, its errors naming the file and the line.
+struct WindowLogLines<'a> {
+    path: &'a Path,
+    lines: std::iter::Peekable<
+        std::iter::Enumerate<std::io::Lines<std::io::BufReader<std::fs::File>>>,
+    >,
+}
+
+impl<'a> WindowLogLines<'a> {
+    fn open(path: &'a Path) -> Result<Self, ReplayError> {
+        let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        let lines = std::io::BufReader::new(file).lines().enumerate().peekable();
+        Ok(Self { path, lines })
+    }
+
+    fn error(&self, line: usize, what: String) -> ReplayError {
+        ReplayError::WindowLog {
+            path: self.path.display().to_string(),
+            line,
+            what,
+        }
+    }
+
+    fn io_error(&self, source: std::io::Error) -> ReplayError {
+        ReplayError::Io {
+            path: self.path.display().to_string(),
+            source,
+        }
+    }
+
+    /// The first line: the run's header.
+    fn header(&mut self) -> Result<WindowLogHeader, ReplayError> {
+        let text = match self.lines.next() {
+            Some((_, line)) => line.map_err(|e| self.io_error(e))?,
+            None => return Err(self.error(1, "empty file: no header line".into())),
+        };
+        serde_json::from_str(&text).map_err(|e| self.error(1, format!("header: {e}")))
+    }
+
+    /// The next window: its line number, the line as recorded and what the replay
+    /// needs of it; `None` at the end, or at a last line cut short (the daemon was
+    /// killed or lost power while writing it), which is said in the journal.
+    fn next_window(
+        &mut self,
+    ) -> Result<Option<(usize, serde_json::Value, RecordedWindow)>, ReplayError> {
+        let Some((index, line)) = self.lines.next() else {
+            return Ok(None);
+        };
+        let line_no = index + 1;
+        let text = line.map_err(|e| self.io_error(e))?;
+        let recorded: serde_json::Value = match serde_json::from_str(&text) {
+            Ok(v) => v,
+            Err(e) if self.lines.peek().is_none() && !ends_with_newline(self.path) => {
+                tracing::warn!(
+                    line = line_no,
+                    "the window log ends in a line cut short ({e}): the recording stopped mid-write; replayed up to the line before"
+                );
+                return Ok(None);
+            }
+            Err(e) => return Err(self.error(line_no, e.to_string())),
+        };
+        let window = RecordedWindow::deserialize(&recorded)
+            .map_err(|e| self.error(line_no, e.to_string()))?;
+        Ok(Some((line_no, recorded, window)))
+    }
+}
+
+/// A recording's events, read ahead as far as the windows take them.
+struct RecordedEvents<'a> {
+    path: &'a Path,
+    reader: Box<dyn faithd_formats::events::EventReader>,
+    pending: Vec<Event>,
+    batch: Vec<Event>,
+    seen: u64,
+}
+
+/// Why a window's events could not be taken.
+enum TakeError {
+    Replay(ReplayError),
+    /// The recording ended this many events short.
+    Short(usize),
+}
+
+impl TakeError {
+    fn or_short(self, short: impl FnOnce(usize) -> ReplayError) -> ReplayError {
+        match self {
+            TakeError::Replay(e) => e,
+            TakeError::Short(n) => short(n),
+        }
+    }
+}
+
+impl<'a> RecordedEvents<'a> {
+    fn open(path: &'a Path) -> Result<Self, ReplayError> {
+        let reader = open_events(path).map_err(events_error(path))?;
+        Ok(Self {
+            path,
+            reader,
+            pending: Vec::new(),
+            batch: Vec::new(),
+            seen: 0,
+        })
+    }
+
+    /// The next `count` events, read as needed; [`Self::consume`] drops them.
+    fn take(&mut self, count: usize) -> Result<&[Event], TakeError> {
+        while self.pending.len() < count {
+            let more = self
+                .reader
+                .next_batch(&mut self.batch)
+                .map_err(|e| TakeError::Replay(events_error(self.path)(e)))?;
+            if !more {
+                return Err(TakeError::Short(count - self.pending.len()));
+            }
+            check_times(self.path, &self.batch, &mut self.seen).map_err(TakeError::Replay)?;
+            self.pending.extend_from_slice(&self.batch);
+        }
+        Ok(&self.pending[..count])
+    }
+
+    fn consume(&mut self, count: usize) {
+        self.pending.drain(..count);
+    }
 }
 
 /// The first and last event times of a recording, microseconds (`None`: no
