@@ -12,7 +12,9 @@
 //! AEDAT 3.1 files store): a 28-byte little-endian header followed by `eventCapacity`
 //! events of `eventSize` bytes; a polarity event is a `u32` data word (bit 0 valid,
 //! bit 1 polarity, bits 2..16 y, bits 17..31 x) and an `i32` timestamp.
-
+// The crate is libcaer's foreign-function interface: its calls, and the packet
+// memory libcaer lays out, are `unsafe` by nature (each block says why it holds).
+#![allow(unsafe_code)]
 #![allow(non_camel_case_types, non_snake_case)]
 
 use std::ffi::{c_char, c_void};
@@ -447,11 +449,12 @@ pub mod mock {
     pub const COUNT_SHUTDOWN_CALLS: i32 = 3;
 
     macro_rules! script {
-        ($($(#[$doc:meta])* $field:ident = $symbol:literal: fn($($ty:ty),*) $(-> $ret:ty)?;)*) => {
+        ($($(#[$doc:meta])* $field:ident = $symbol:literal: fn($($arg:ident: $ty:ty),*) $(-> $ret:ty)?;)*) => {
             /// The mock's script controls, from the same loaded library (so the same
-            /// state).
+            /// state), as safe calls: each takes plain values and touches only the
+            /// mock's own state.
             pub struct Script {
-                $($(#[$doc])* pub $field: unsafe extern "C" fn($($ty),*) $(-> $ret)?,)*
+                $($field: unsafe extern "C" fn($($ty),*) $(-> $ret)?,)*
                 _library: libloading::Library,
             }
 
@@ -468,6 +471,15 @@ pub mod mock {
                         }
                     }
                 }
+
+                $(
+                    $(#[$doc])*
+                    pub fn $field(&self, $($arg: $ty),*) $(-> $ret)? {
+                        // SAFETY: loaded with this signature from the library `self`
+                        // keeps open; plain values in and out, no pointer kept.
+                        unsafe { (self.$field)($($arg),*) }
+                    }
+                )*
             }
         };
     }
@@ -475,39 +487,39 @@ pub mod mock {
     script! {
         /// Containers served before the device "vanishes", and how many opens fail
         /// after that before it "returns". Resets every other control and counter.
-        set = "caer_mock_script": fn(i32, i32);
+        set = "caer_mock_script": fn(containers_before_disconnect: i32, failed_opens_after: i32);
         /// Opens attempted so far (successful or not).
         open_attempts = "caer_mock_open_attempts": fn() -> i32;
         /// Last value set for (module, parameter), or -1.
-        config_value = "caer_mock_config_value": fn(i8, u8) -> i64;
+        config_value = "caer_mock_config_value": fn(module: i8, param: u8) -> i64;
         /// Whether the caller's last write of (module, parameter) came while the
         /// device was started (after a successful DataStart): 1, 0, or -1 when the
         /// caller never wrote it (DataStart's and DataStop's own writes do not count).
-        config_written_while_started = "caer_mock_config_written_while_started": fn(i8, u8) -> i32;
+        config_written_while_started = "caer_mock_config_written_while_started": fn(module: i8, param: u8) -> i32;
         /// The DVS size `caerDavisInfoGet` reports (240x180 until set; `set` restores it).
-        sensor = "caer_mock_sensor": fn(i16, i16);
+        sensor = "caer_mock_sensor": fn(width_px: i16, height_px: i16);
         /// What the device refuses from now on: a sum of the `FAIL_*` flags.
-        fail = "caer_mock_fail": fn(i32);
+        fail = "caer_mock_fail": fn(what: i32);
         /// After this many containers the scene goes dark for this long (us of device
-        /// time): a blocking DataGet returns NULL after about a second meanwhile.
-        quiet = "caer_mock_quiet": fn(i32, i64);
+        /// time): a blocking DataGet returns NULL after 1.11-1.22 s meanwhile.
+        quiet = "caer_mock_quiet": fn(after_containers: i32, gap_us: i64);
         /// The device clock: it runs at `rate` times real time (1.02: 2 % fast) and each
         /// container arrives a uniform random `latency_min_us..=latency_max_us` after its
         /// newest event. Containers are paced in real time. `set` restores (1, 0, 0).
-        clock = "caer_mock_clock": fn(f64, i32, i32);
+        clock = "caer_mock_clock": fn(rate: f64, latency_min_us: i32, latency_max_us: i32);
         /// CLOCK_MONOTONIC in microseconds (Rust's `Instant` on Linux).
         now_us = "caer_mock_now_us": fn() -> i64;
         /// The CLOCK_MONOTONIC time (us) at which the device clock of the current
         /// session read `device_us`: when an event stamped so really happened.
-        true_host_us = "caer_mock_true_host_us": fn(i64) -> i64;
+        true_host_us = "caer_mock_true_host_us": fn(device_us: i64) -> i64;
         /// How many DataStarts succeeded, DataStops, Closes, shutdown callbacks
         /// (`COUNT_*`).
-        count = "caer_mock_count": fn(i32) -> i32;
+        count = "caer_mock_count": fn(what: i32) -> i32;
         /// Packets of an event type handed out since `set`.
-        packets_served = "caer_mock_packets_served": fn(i32) -> i32;
+        packets_served = "caer_mock_packets_served": fn(event_type: i32) -> i32;
         /// Data container `k` as DataGet builds it, APS and IMU running: (k, first
         /// device time in us, edge column). Owned by the caller.
-        container = "caer_mock_container": fn(i32, i64, i32) -> caerEventPacketContainer;
+        container = "caer_mock_container": fn(k: i32, t0_us: i64, x: i32) -> caerEventPacketContainer;
         /// The container libcaer sends alone after a timestamp reset. Owned by the
         /// caller.
         timestamp_reset_container = "caer_mock_timestamp_reset_container": fn() -> caerEventPacketContainer;
@@ -542,6 +554,7 @@ pub unsafe fn read_polarity_packet(packet: caerEventPacketHeader, out: &mut Vec<
     // SAFETY: the header's 28 bytes are there (caller's contract); events are read
     // only below `eventNumber`, checked against the capacity first.
     let i32_at = |off: usize| unsafe { packet.add(off).cast::<i32>().read_unaligned() };
+    // SAFETY: the type is the header's first two bytes (caller's contract).
     let event_type = unsafe { packet.cast::<i16>().read_unaligned() };
     if event_type != POLARITY_EVENT {
         return false;
@@ -702,6 +715,7 @@ mod tests {
         let p = packet(POLARITY_EVENT, 1, &[(polarity_word(1, 2, true, true), 5)]);
         // SAFETY: the header lies within the allocation.
         unsafe { p.add(12).cast::<i32>().write_unaligned(2) };
+        // SAFETY: built as libcaer builds them, owned here.
         let c = unsafe { Container::from_raw(container(&[p])) }.unwrap();
         let mut out = Vec::new();
         // SAFETY: a live packet.

@@ -7,6 +7,10 @@
 //! a device never started aborting the process (libcaer would crash there), a settable
 //! sensor size, and a device clock paced in real time with settable drift and latency.
 
+// Calls into libcaer (the mock, or the real library) and reads the memory it
+// hands over: foreign code, so `unsafe`, each block with why it holds.
+#![allow(unsafe_code)]
+
 use crate::common;
 
 use std::sync::{Mutex, MutexGuard, PoisonError};
@@ -70,14 +74,14 @@ fn device() -> MutexGuard<'static, ()> {
 fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(50, 0) };
+    script.set(50, 0);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let clock = DaemonClock::start();
     let ended = serve_device(&lib, &[(5, 1, 24575), (5, 3, 42)], DVS240, &io(clock, &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
-    assert_eq!(unsafe { (script.config_value)(5, 3) }, 42);
+    assert_eq!(script.config_value(5, 3), 42);
     assert_eq!(
-        unsafe { (script.config_value)(-2, 1) },
+        script.config_value(-2, 1),
         0,
         "non-blocking: the camera thread waits between reads where it hears a stop"
     );
@@ -104,7 +108,7 @@ fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
 fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(20, 3) };
+    script.set(20, 3);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let source = std::thread::spawn(move || {
         run(
@@ -127,7 +131,7 @@ fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
         "only {events} events: the camera did not come back"
     );
     // One open, three refused while it was gone, one that found it again.
-    assert_eq!(unsafe { (script.open_attempts)() }, 5);
+    assert_eq!(script.open_attempts(), 5);
     drop(rx);
     assert_eq!(source.join().unwrap(), Ok(()));
 }
@@ -136,11 +140,9 @@ fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
 fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe {
-        // 50 containers a session: a source that took the camera returns soon.
-        (script.set)(50, 0);
-        (script.sensor)(346, 260);
-    }
+    // 50 containers a session: a source that took the camera returns soon.
+    script.set(50, 0);
+    script.sensor(346, 260);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let clock = DaemonClock::start();
     let davis346 = SensorSize {
@@ -178,19 +180,15 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
         .recv_timeout(Duration::from_secs(5))
         .expect("the source keeps running with the wrong camera");
     assert_eq!(result, Err(mismatch.clone()));
-    assert_eq!(
-        unsafe { (script.open_attempts)() },
-        2,
-        "one open each, no retry"
-    );
+    assert_eq!(script.open_attempts(), 2, "one open each, no retry");
     assert!(rx.try_recv().is_err());
     assert_eq!(
         mismatch.to_string(),
         "camera is 346x260 px but pipeline.camera is 240x180 px: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera, or connect the DVS240"
     );
     // The same camera configured as what it is streams.
-    unsafe { (script.set)(5, 0) };
-    unsafe { (script.sensor)(346, 260) };
+    script.set(5, 0);
+    script.sensor(346, 260);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     assert_eq!(
         serve_device(&lib, &[], davis346, &io(clock, &tx)),
@@ -208,15 +206,13 @@ fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
     let _cpu = crate::common::cpu::timed();
     let _device = device();
     let (lib, script) = mock();
-    unsafe {
-        (script.set)(2_500, 0);
-        (script.clock)(0.98, 200, 3_000);
-    }
+    script.set(2_500, 0);
+    script.clock(0.98, 200, 3_000);
     let (tx, rx) = std::sync::mpsc::sync_channel(10_000);
     // The daemon clock's zero on CLOCK_MONOTONIC, to within the two readings.
-    let before_us = unsafe { (script.now_us)() };
+    let before_us = script.now_us();
     let clock = DaemonClock::start();
-    let after_us = unsafe { (script.now_us)() };
+    let after_us = script.now_us();
     let zero_us = (before_us + after_us) / 2;
     assert!(after_us - before_us < 200);
     let ended = serve_device(&lib, &[], DVS240, &io(clock, &tx)).unwrap();
@@ -229,7 +225,7 @@ fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
         for e in batch {
             // Container k holds device times k ms + row us (the mock's stream).
             let device_us = k as i64 * 1_000 + i64::from(e.y_px);
-            let truth_us = unsafe { (script.true_host_us)(device_us) } - zero_us;
+            let truth_us = script.true_host_us(device_us) - zero_us;
             assert!(
                 e.t_us >= previous_us,
                 "time went backwards in container {k}"
@@ -245,13 +241,11 @@ fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
 
 /// (DataStarts that succeeded, DataStops, Closes) since the script was set.
 fn lifecycle(script: &Script) -> (i32, i32, i32) {
-    unsafe {
-        (
-            (script.count)(COUNT_STARTS),
-            (script.count)(COUNT_STOPS),
-            (script.count)(COUNT_CLOSES),
-        )
-    }
+    (
+        script.count(COUNT_STARTS),
+        script.count(COUNT_STOPS),
+        script.count(COUNT_CLOSES),
+    )
 }
 
 /// Every way a session can refuse or fail before streaming closes the device and
@@ -268,10 +262,8 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     };
 
     // A DAVIS346 where a DVS240 is configured.
-    unsafe {
-        (script.set)(50, 0);
-        (script.sensor)(346, 260);
-    }
+    script.set(50, 0);
+    script.sensor(346, 260);
     assert!(matches!(
         session(&[]),
         Err(SessionError::Refused(CameraError::SizeMismatch { .. }))
@@ -279,10 +271,8 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     assert_eq!(lifecycle(&script), (0, 0, 1), "size mismatch");
 
     // A camera that does not report its DVS size.
-    unsafe {
-        (script.set)(50, 0);
-        (script.fail)(FAIL_INFO);
-    }
+    script.set(50, 0);
+    script.fail(FAIL_INFO);
     assert_eq!(
         session(&[]),
         Err(SessionError::Retry(
@@ -292,10 +282,8 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     assert_eq!(lifecycle(&script), (0, 0, 1), "no DVS size");
 
     // libcaer's default configuration refused.
-    unsafe {
-        (script.set)(50, 0);
-        (script.fail)(FAIL_DEFAULT_CONFIG);
-    }
+    script.set(50, 0);
+    script.fail(FAIL_DEFAULT_CONFIG);
     assert_eq!(
         session(&[]),
         Err(SessionError::Retry("default configuration refused".into()))
@@ -303,10 +291,8 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     assert_eq!(lifecycle(&script), (0, 0, 1), "default config refused");
 
     // The transfer does not start.
-    unsafe {
-        (script.set)(50, 0);
-        (script.fail)(FAIL_DATA_START);
-    }
+    script.set(50, 0);
+    script.fail(FAIL_DATA_START);
     assert_eq!(
         session(&[]),
         Err(SessionError::Retry("data transfer could not start".into()))
@@ -314,7 +300,7 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     assert_eq!(lifecycle(&script), (0, 0, 1), "failed start");
 
     // A setting the camera does not have: started, so stopped, then closed.
-    unsafe { (script.set)(50, 0) };
+    script.set(50, 0);
     assert_eq!(
         session(&[(5, 1, 24575), (7, 0, 1)]),
         Err(SessionError::Refused(CameraError::SettingRefused {
@@ -325,7 +311,7 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     assert_eq!(lifecycle(&script), (1, 1, 1), "refused setting");
 
     // The camera goes away at once, then no camera to open: nothing to close.
-    unsafe { (script.set)(0, 3) };
+    script.set(0, 3);
     assert_eq!(session(&[]), Ok(Ended::DeviceLost));
     assert_eq!(session(&[]), Err(SessionError::Retry(NO_CAMERA.into())));
     assert_eq!(lifecycle(&script), (1, 1, 1), "no camera");
@@ -364,8 +350,10 @@ fn data_stop_before_data_start_in_a_child() {
         return;
     }
     let (lib, _script) = mock();
+    // SAFETY: a call into the loaded library with plain values and a handle it returned.
     let handle = unsafe { (lib.caerDeviceOpen)(1, 4, 0, 0, std::ptr::null()) };
     assert!(!handle.is_null());
+    // SAFETY: a call into the loaded library with plain values and a handle it returned.
     unsafe { (lib.caerDeviceDataStop)(handle) };
     unreachable!("the mock returned from DataStop on a device never started");
 }
@@ -378,30 +366,27 @@ fn data_stop_before_data_start_in_a_child() {
 fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(50, 0) };
+    script.set(50, 0);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let settings = [(5, 1, 24575), (5, 2, 16399)];
     let ended = serve_device(&lib, &settings, DVS240, &io(DaemonClock::start(), &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     for (module, param, value) in settings {
+        assert_eq!(script.config_value(module, param), i64::from(value));
         assert_eq!(
-            unsafe { (script.config_value)(module, param) },
-            i64::from(value)
-        );
-        assert_eq!(
-            unsafe { (script.config_written_while_started)(module, param) },
+            script.config_written_while_started(module, param),
             1,
             "({module}, {param}) written before DataStart, which undoes run flags"
         );
     }
     for (module, param) in [(2, 4), (3, 2), (3, 3), (3, 4)] {
         assert_eq!(
-            unsafe { (script.config_written_while_started)(module, param) },
+            script.config_written_while_started(module, param),
             1,
             "({module}, {param}) not turned off after DataStart"
         );
     }
-    let served = |t: i16| unsafe { (script.packets_served)(i32::from(t)) };
+    let served = |t: i16| script.packets_served(i32::from(t));
     assert_eq!(served(POLARITY_EVENT), 50);
     // Four containers were in flight when the APS and the IMU went off.
     assert!(
@@ -429,7 +414,7 @@ fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
 fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
     let _device = device();
     let (_, script) = mock();
-    unsafe { (script.set)(50, 0) };
+    script.set(50, 0);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let (done_tx, done_rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
@@ -460,7 +445,7 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
             .starts_with("entry [1] = [5, 200, 1] refused by libcaer"),
         "{err}"
     );
-    assert_eq!(unsafe { (script.open_attempts)() }, 1, "no retry");
+    assert_eq!(script.open_attempts(), 1, "no retry");
     assert!(rx.try_recv().is_err());
 }
 
@@ -470,10 +455,9 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
 fn a_blocking_data_get_gives_up_only_after_more_than_a_second_without_data() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe {
-        (script.set)(100, 0);
-        (script.quiet)(0, 10_000_000);
-    }
+    script.set(100, 0);
+    script.quiet(0, 10_000_000);
+    // SAFETY: a call into the loaded library with plain values and a handle it returned.
     unsafe {
         let mut handle = (lib.caerDeviceOpen)(1, 4, 0, 0, std::ptr::null());
         assert!(!handle.is_null());
@@ -512,10 +496,8 @@ fn a_blocking_data_get_gives_up_only_after_more_than_a_second_without_data() {
 fn a_dark_scene_is_not_a_lost_camera() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe {
-        (script.set)(10, 0);
-        (script.quiet)(5, 2_500_000);
-    }
+    script.set(10, 0);
+    script.quiet(5, 2_500_000);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let started = Instant::now();
     let ended = serve_device(&lib, &[], DVS240, &io(DaemonClock::start(), &tx)).unwrap();
@@ -528,13 +510,14 @@ fn a_dark_scene_is_not_a_lost_camera() {
         (2_400_000..2_700_000).contains(&gap_us),
         "{gap_us} us between the edges before and after the dark"
     );
-    assert_eq!(unsafe { (script.count)(COUNT_SHUTDOWN_CALLS) }, 1);
+    assert_eq!(script.count(COUNT_SHUTDOWN_CALLS), 1);
 }
 
 static CALLBACK_THREAD: Mutex<Option<std::thread::ThreadId>> = Mutex::new(None);
 
 unsafe extern "C" fn note_the_callbacks_thread(flag: *mut std::ffi::c_void) {
     *CALLBACK_THREAD.lock().unwrap() = Some(std::thread::current().id());
+    // SAFETY: the flag is the AtomicBool the test owns until the device is closed.
     let flag = unsafe { &*(flag as *const std::sync::atomic::AtomicBool) };
     flag.store(true, std::sync::atomic::Ordering::SeqCst);
 }
@@ -546,8 +529,9 @@ unsafe extern "C" fn note_the_callbacks_thread(flag: *mut std::ffi::c_void) {
 fn the_shutdown_callback_comes_from_another_thread() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(3, 0) };
+    script.set(3, 0);
     let lost = Box::new(std::sync::atomic::AtomicBool::new(false));
+    // SAFETY: a call into the loaded library with plain values and a handle it returned.
     unsafe {
         let mut handle = (lib.caerDeviceOpen)(1, 4, 0, 0, std::ptr::null());
         assert!((lib.caerDeviceConfigSet)(handle, -2, 1, 1));
@@ -587,8 +571,9 @@ fn containers_are_laid_out_and_read_as_libcaers() {
     // The mock counts the packets it builds: not while another test counts them.
     let _device = device();
     let (_, script) = mock();
-    let raw = unsafe { (script.container)(0, 1_000, 7) };
+    let raw = script.container(0, 1_000, 7);
     let bytes =
+        // SAFETY: within the packet or container the library laid out (its header and capacity).
         |at: usize, n: usize| unsafe { std::slice::from_raw_parts(raw.cast::<u8>().add(at), n) };
     let i64_at = |at| i64::from_le_bytes(bytes(at, 8).try_into().unwrap());
     let i32_at = |at| i32::from_le_bytes(bytes(at, 4).try_into().unwrap());
@@ -600,9 +585,11 @@ fn containers_are_laid_out_and_read_as_libcaers() {
     );
     assert_eq!(i64_at(8), 1_500, "highestEventTimestamp: the IMU sample");
     assert_eq!((i32_at(16), i32_at(20)), (184, 183), "events, valid events");
+    // SAFETY: a container the library allocated and handed over, freed once by its drop.
     let c = unsafe { Container::from_raw(raw) }.unwrap();
     let kind = |n| {
         c.packet(n)
+            // SAFETY: within the packet or container the library laid out (its header and capacity).
             .map(|p| unsafe { p.cast::<i16>().read_unaligned() })
     };
     assert_eq!(
@@ -616,6 +603,7 @@ fn containers_are_laid_out_and_read_as_libcaers() {
     );
     let mut events = Vec::new();
     for p in c.packets() {
+        // SAFETY: a live packet of a live container (header and capacity in memory).
         unsafe { libcaer_sys::read_polarity_packet(p, &mut events) };
     }
     assert_eq!(events.len(), 180);
@@ -624,20 +612,25 @@ fn containers_are_laid_out_and_read_as_libcaers() {
     drop(c);
 
     // An odd container: no special packet, no frame.
-    let c = unsafe { Container::from_raw((script.container)(1, 2_000, 8)) }.unwrap();
+    // SAFETY: a container the library allocated and handed over, freed once by its drop.
+    let c = unsafe { Container::from_raw(script.container(1, 2_000, 8)) }.unwrap();
     assert_eq!(c.packets_number(), 4);
     assert!(c.packet(0).is_none() && c.packet(2).is_none());
     assert!(c.packet(1).is_some() && c.packet(3).is_some());
     drop(c);
 
     // The timestamp reset alone: one slot, a special packet, no polarity event.
-    let c = unsafe { Container::from_raw((script.timestamp_reset_container)()) }.unwrap();
+    // SAFETY: a container the library allocated and handed over, freed once by its drop.
+    let c = unsafe { Container::from_raw(script.timestamp_reset_container()) }.unwrap();
     assert_eq!(c.packets_number(), 1);
     let special = c.packet(0).unwrap();
+    // SAFETY: within the packet or container the library laid out (its header and capacity).
     let word = unsafe { special.add(28).cast::<u32>().read_unaligned() };
+    // SAFETY: within the packet or container the library laid out (its header and capacity).
     let ts = unsafe { special.add(32).cast::<i32>().read_unaligned() };
     assert_eq!(((word >> 1) & 0x7F, word & 1, ts), (1, 1, i32::MAX));
     let mut events = Vec::new();
+    // SAFETY: a live packet of a live container (header and capacity in memory).
     assert!(!unsafe { libcaer_sys::read_polarity_packet(special, &mut events) });
     assert!(events.is_empty());
 }
@@ -867,17 +860,6 @@ fn stop_when(
     (asked.elapsed(), ended)
 }
 
-/// The device calls of the session: (DataStart, DataStop, Close).
-fn started_stopped_closed(script: &Script) -> (i32, i32, i32) {
-    unsafe {
-        (
-            (script.count)(COUNT_STARTS),
-            (script.count)(COUNT_STOPS),
-            (script.count)(COUNT_CLOSES),
-        )
-    }
-}
-
 /// The stop reaches the camera thread within 200 ms in each state it can be in,
 /// and a started device is stopped and every opened one closed.
 const STOP_HEARD_WITHIN: Duration = Duration::from_millis(200);
@@ -886,7 +868,7 @@ const STOP_HEARD_WITHIN: Duration = Duration::from_millis(200);
 fn a_stop_while_streaming_stops_the_transfer_and_closes_the_device_at_once() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(1_000_000, 0) };
+    script.set(1_000_000, 0);
     let mut batches = 0;
     let (took, ended) = stop_when(lib, |rx| {
         batches += rx.try_iter().count();
@@ -894,7 +876,7 @@ fn a_stop_while_streaming_stops_the_transfer_and_closes_the_device_at_once() {
     });
     assert_eq!(ended, Ok(()));
     assert!(took < STOP_HEARD_WITHIN, "{took:?}");
-    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
+    assert_eq!(lifecycle(&script), (1, 1, 1));
 }
 
 /// In a dark scene the old blocking read sat in libcaer for 1.11-1.22 s; the
@@ -903,10 +885,8 @@ fn a_stop_while_streaming_stops_the_transfer_and_closes_the_device_at_once() {
 fn a_stop_in_a_dark_scene_is_heard_at_once_where_a_blocking_read_would_wait_over_a_second() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe {
-        (script.set)(1_000_000, 0);
-        (script.quiet)(5, 60_000_000);
-    }
+    script.set(1_000_000, 0);
+    script.quiet(5, 60_000_000);
     let mut batches = 0;
     let mut dark_since: Option<Instant> = None;
     let (took, ended) = stop_when(lib, |rx| {
@@ -919,8 +899,8 @@ fn a_stop_in_a_dark_scene_is_heard_at_once_where_a_blocking_read_would_wait_over
     assert_eq!(batches, 5, "the scene went dark after five containers");
     assert_eq!(ended, Ok(()));
     assert!(took < STOP_HEARD_WITHIN, "{took:?}");
-    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
-    assert_eq!(unsafe { (script.config_value)(-2, 1) }, 0, "never blocking");
+    assert_eq!(lifecycle(&script), (1, 1, 1));
+    assert_eq!(script.config_value(-2, 1), 0, "never blocking");
 }
 
 /// With no camera the thread waits between attempts (up to 2 s): the stop cuts the
@@ -930,9 +910,9 @@ fn a_stop_in_a_dark_scene_is_heard_at_once_where_a_blocking_read_would_wait_over
 fn a_stop_while_retrying_without_a_camera_cuts_the_wait_short() {
     let _device = device();
     let (lib, script) = mock();
-    unsafe { (script.set)(0, 1_000_000) };
-    let (took, ended) = stop_when(lib, |_| unsafe { (script.open_attempts)() } >= 5);
+    script.set(0, 1_000_000);
+    let (took, ended) = stop_when(lib, |_| script.open_attempts() >= 5);
     assert_eq!(ended, Ok(()));
     assert!(took < STOP_HEARD_WITHIN, "{took:?}");
-    assert_eq!(started_stopped_closed(&script), (1, 1, 1));
+    assert_eq!(lifecycle(&script), (1, 1, 1));
 }

@@ -14,6 +14,10 @@
 //! this test writes) read through faithd's reader to the events libcaer's own getters
 //! read.
 
+// Calls into libcaer (the mock, or the real library) and reads the memory it
+// hands over: foreign code, so `unsafe`, each block with why it holds.
+#![allow(unsafe_code)]
+
 use crate::common;
 
 use std::io::Write;
@@ -280,6 +284,7 @@ fn containers_from_the_real_inline_allocators_read_as_libcaers_own_getters_read_
     let builder_path = build_builder(&dir.0, &include, &library);
     // SAFETY: the builder's functions have exactly these C signatures.
     let builder = unsafe { libcaer_sys::libloading::Library::new(&builder_path) }.unwrap();
+    // SAFETY: see the call: plain values into the loaded library.
     let (build, packets_number, packet, read) = unsafe {
         (
             *builder.get::<Build>(b"faithd_build\0").unwrap(),
@@ -303,6 +308,7 @@ fn containers_from_the_real_inline_allocators_read_as_libcaers_own_getters_read_
                 vec![0u16; room],
                 vec![0u8; room],
             );
+            // SAFETY: see the call: plain values into the loaded library.
             let n = unsafe {
                 read(
                     raw,
@@ -322,9 +328,12 @@ fn containers_from_the_real_inline_allocators_read_as_libcaers_own_getters_read_
                 })
                 .collect::<Vec<_>>()
         };
+        // SAFETY: a container the library allocated and handed over, freed once by its drop.
         let container = unsafe { Container::from_raw(raw) }.unwrap();
+        // SAFETY: see the call: plain values into the loaded library.
         assert_eq!(container.packets_number(), unsafe { packets_number(raw) });
         for n in 0..4 {
+            // SAFETY: see the call: plain values into the loaded library.
             let theirs = unsafe { packet(raw, n) };
             assert_eq!(
                 container.packet(n),
@@ -335,6 +344,7 @@ fn containers_from_the_real_inline_allocators_read_as_libcaers_own_getters_read_
         assert_eq!((container.packet(-1), container.packet(4)), (None, None));
         let mut ours = Vec::new();
         for p in container.packets() {
+            // SAFETY: a live packet of a live container (header and capacity in memory).
             unsafe { libcaer_sys::read_polarity_packet(p, &mut ours) };
         }
         assert_eq!(ours, expected, "container {k}");

@@ -157,8 +157,11 @@ fn through_libcaer_packets(events: &[Event]) -> Vec<Event> {
             packet[at + 4..at + 8].copy_from_slice(&ts.to_le_bytes());
         }
         let mut read = Vec::new();
+        // libcaer-sys's reader of libcaer's packet memory is `unsafe` by its FFI nature.
+        #[allow(unsafe_code)]
         // SAFETY: a whole packet (header and capacity) in memory we own.
-        assert!(unsafe { libcaer_sys::read_polarity_packet(packet.as_mut_ptr(), &mut read) });
+        let whole = unsafe { libcaer_sys::read_polarity_packet(packet.as_mut_ptr(), &mut read) };
+        assert!(whole);
         out.extend(
             read.iter()
                 .map(|p| Event::new(p.t_us, p.x, p.y, Polarity::from_bool(p.on))),

@@ -29,6 +29,9 @@
 //! `caerDeviceDataStop` empties a ring buffer that only a successful DataStart made,
 //! so it is called only then ([`Device`]); `caerDeviceClose` always.
 
+// Calls into libcaer (foreign code) and reads the memory it hands over.
+#![allow(unsafe_code)]
+
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{SyncSender, TrySendError};
 use std::time::Duration;

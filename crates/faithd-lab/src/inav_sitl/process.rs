@@ -91,6 +91,8 @@ impl Sitl {
         // hangs up while iNav still answers it kills SITL with SIGPIPE, which a real
         // UART never does. SIGPIPE ignored (inherited across exec, also by SITL's own
         // restart after `save`) turns that into the EPIPE a UART's silence amounts to.
+        // pre_exec: a libc call in the child before exec.
+        #[allow(unsafe_code)]
         // SAFETY: signal() is async-signal-safe; nothing else runs between fork and exec.
         unsafe {
             use std::os::unix::process::CommandExt;
