@@ -8,9 +8,10 @@
 
 use std::time::Duration;
 
-use super::CommandConfig;
-use faithd_core::safety::gate::{FIRST_AUX_CHANNEL, GateConfig};
-use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
+use super::rxrange::RxRange;
+use super::{CommandConfig, FIRST_AUX_CHANNEL};
+use faithd_core::safety::gate::GateConfig;
+use faithd_core::safety::rc::NEUTRAL_US;
 
 use super::msp_port::{self, MspError, MspPort};
 

@@ -28,12 +28,13 @@ use tokio::sync::{mpsc, oneshot, watch};
 use super::fc_check::{self, Expectations, FcSettings, RouteFacts};
 use super::msp;
 use super::msp_port::{self, MspError, MspPort};
+use super::rxrange::RxRange;
 use crate::clock::DaemonClock;
 use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
-use faithd_core::safety::commander::RollReport;
-use faithd_core::safety::gate::FcStatus;
-use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
+use faithd_core::safety::commander::{RollReport, RouteStatus};
+use faithd_core::safety::gate::{AutopilotStatus, RouteWords};
+use faithd_core::safety::rc::NEUTRAL_US;
 
 /// The stream's knobs, from the config.
 #[derive(Clone, Copy, Debug)]
@@ -55,34 +56,57 @@ pub struct StreamSettings {
     pub hold_bound: Duration,
 }
 
-/// What the stream publishes for the gate and the commander.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StreamStatus {
-    pub setup_refused: bool,
-    /// The set-up changed in flight: the stream stopped until it is checked again.
-    pub setup_changed: bool,
-    /// From this daemon time on iNav applies the stream; `None` while not streaming.
-    pub ready_at_us: Option<i64>,
-    pub facts: Option<RouteFacts>,
-    pub last_report: Option<RollReport>,
-    /// iNav's own state (armed, failsafe, ANGLE, override mode).
-    pub fc: Option<FcStatus>,
-}
-
 /// Asks the stream to end with the stick centre: `repeats` frames one period apart;
 /// the answer is how many went out, or why none could.
 pub struct StopRequest {
     pub repeats: u32,
-    pub done: oneshot::Sender<Result<u32, String>>,
+    pub done: oneshot::Sender<Result<u32, ReleaseError>>,
+}
+
+/// Why the centre did not (all) reach iNav's MSP port.
+#[derive(Debug, thiserror::Error)]
+pub enum ReleaseError {
+    /// The stream was not streaming: nothing of faithd's for iNav to hold.
+    #[error("the MSP port is not open")]
+    NotOpen,
+    #[error("cannot open {endpoint}: {source}")]
+    Open {
+        endpoint: String,
+        source: std::io::Error,
+    },
+    #[error("{written} of {repeats} written, then: {source}")]
+    Write {
+        written: u32,
+        repeats: u32,
+        source: std::io::Error,
+    },
 }
 
 /// The commander's side of the stream.
 pub struct StreamHandle {
     /// The roll value iNav should use (the centre when idle).
     pub held: watch::Sender<u16>,
-    pub status: watch::Receiver<StreamStatus>,
+    /// What the gate and the commander read: the set-up judged, the stream ready
+    /// (from when iNav applies it), iNav's status (armed, failsafe, ANGLE, the
+    /// override mode) and the roll iNav reports using.
+    pub status: watch::Receiver<RouteStatus>,
+    /// The route as the last check found it, for a release written from outside.
+    pub facts: watch::Receiver<Option<RouteFacts>>,
     pub stop: mpsc::Sender<StopRequest>,
 }
+
+/// How iNav over MSP is worded in the journal when it keeps the gate closed.
+pub static INAV_MSP_WORDS: RouteWords = RouteWords {
+    setup_refused: "flight controller set-up refused (see `faithd check-fc`)",
+    setup_changed: "the flight controller's set-up changed in flight (the journal says what): faithd reads it again before it commands",
+    not_streaming: "MSP command port not streaming",
+    no_status: "no status from the flight controller over MSP yet",
+    status_stale: "flight controller status over MSP stale",
+    failsafe: "iNav's FAILSAFE mode",
+    override_inactive: "iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll",
+    stabilised_mode_off: "iNav is not in ANGLE mode: a roll stick would command a rotation rate, not a bank (put ANGLE on the AUTO switch: `faithd check-fc`)",
+    warming_up: "iNav applies the MSP override only after its recovery delay",
+};
 
 /// Starts the stream task.
 pub fn spawn(
@@ -92,22 +116,30 @@ pub fn spawn(
     heartbeat: Heartbeat,
 ) -> StreamHandle {
     let (held, held_rx) = watch::channel(NEUTRAL_US);
-    let (status_tx, status) = watch::channel(StreamStatus::default());
+    let (status_tx, status) = watch::channel(RouteStatus::unchecked(&INAV_MSP_WORDS));
+    let (facts_tx, facts) = watch::channel(None);
     let (stop, stop_rx) = mpsc::channel(1);
     let channels = Channels {
         held: held_rx,
         status: status_tx,
+        facts: facts_tx,
         stop: stop_rx,
         heartbeat,
     };
     tokio::spawn(run(endpoint, settings, clock, channels));
-    StreamHandle { held, status, stop }
+    StreamHandle {
+        held,
+        status,
+        facts,
+        stop,
+    }
 }
 
 /// The stream task's ends of its channels, and its heartbeat.
 struct Channels {
     held: watch::Receiver<u16>,
-    status: watch::Sender<StreamStatus>,
+    status: watch::Sender<RouteStatus>,
+    facts: watch::Sender<Option<RouteFacts>>,
     stop: mpsc::Receiver<StopRequest>,
     heartbeat: Heartbeat,
 }
@@ -120,11 +152,11 @@ pub async fn release_directly(
     roll_rxrange: RxRange,
     repeats: u32,
     period: Duration,
-) -> Result<u32, String> {
-    let transport = endpoint
-        .open()
-        .await
-        .map_err(|e| format!("cannot open {endpoint}: {e}"))?;
+) -> Result<u32, ReleaseError> {
+    let transport = endpoint.open().await.map_err(|source| ReleaseError::Open {
+        endpoint: endpoint.to_string(),
+        source,
+    })?;
     let mut port = MspPort::new(transport);
     let centre = raw_rc_frame(facts.roll_frame_index, NEUTRAL_US, roll_rxrange);
     release(&mut port, &centre, repeats, period).await
@@ -150,7 +182,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             biased;
             o = endpoint.open() => o,
             Some(req) = channels.stop.recv() => {
-                let _ = req.done.send(Err("the MSP port is not open".into()));
+                let _ = req.done.send(Err(ReleaseError::NotOpen));
                 return;
             }
         };
@@ -167,23 +199,23 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
                         tracing::warn!(%endpoint, "cannot read the flight controller's set-up: {why}");
                         backoff
                     }
-                    Ok(Err(summary)) => {
-                        channels.status.send_modify(|s| s.setup_refused = true);
+                    Ok(Checked::Refused(summary)) => {
+                        channels.status.send_modify(|s| s.path.setup_refused = true);
                         tracing::error!(%endpoint, "flight controller set-up refused, faithd will not command: {summary}");
                         settings.recheck
                     }
-                    Ok(Ok((fc, facts))) => {
+                    Ok(Checked::Accepted(fc, facts)) => {
                         let why =
                             serve(&mut port, &fc, facts, &settings, &clock, &mut channels).await;
                         channels.status.send_modify(|s| {
-                            s.ready_at_us = None;
+                            s.path.ready_at_us = None;
+                            s.path.autopilot = None;
                             s.last_report = None;
-                            s.fc = None;
                         });
                         match why {
                             Ended::Stopped => return,
                             Ended::SetupChanged(what) => {
-                                channels.status.send_modify(|s| s.setup_changed = true);
+                                channels.status.send_modify(|s| s.path.setup_changed = true);
                                 tracing::error!(%endpoint, "the flight controller's set-up changed in flight ({what}): faithd stopped streaming and closes the gate until the set-up is checked again");
                                 Duration::ZERO
                             }
@@ -200,7 +232,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             biased;
             _ = channels.heartbeat.sleep(wait) => {}
             Some(req) = channels.stop.recv() => {
-                let _ = req.done.send(Err("the MSP port is not open".into()));
+                let _ = req.done.send(Err(ReleaseError::NotOpen));
                 return;
             }
         }
@@ -208,23 +240,26 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
     }
 }
 
-/// Reads and judges the set-up; `Ok(Err(summary))` when it is refused.
-async fn check(
-    port: &mut MspPort,
-    settings: &StreamSettings,
-) -> Result<Result<(FcSettings, RouteFacts), String>, String> {
-    let fc = fc_check::read(port, settings.reply_timeout)
-        .await
-        .map_err(|e| e.to_string())?;
+/// The set-up as judged on an open port.
+enum Checked {
+    /// Accepted: what was read, and the route it gives.
+    Accepted(FcSettings, RouteFacts),
+    /// Refused, with the check's summary for the journal.
+    Refused(String),
+}
+
+/// Reads and judges the set-up; an error when it could not be read at all.
+async fn check(port: &mut MspPort, settings: &StreamSettings) -> Result<Checked, MspError> {
+    let fc = fc_check::read(port, settings.reply_timeout).await?;
     let report = fc_check::evaluate(&fc, &settings.expect);
     Ok(match report.route {
         Some(facts) => {
             for item in &report.items {
                 tracing::info!("flight controller {}: {}", item.what, item.found);
             }
-            Ok((fc, facts))
+            Checked::Accepted(fc, facts)
         }
-        None => Err(report.summary()),
+        None => Checked::Refused(report.summary()),
     })
 }
 
@@ -320,6 +355,7 @@ async fn serve(
     let Channels {
         held,
         status,
+        facts: facts_tx,
         stop,
         heartbeat,
     } = channels;
@@ -334,11 +370,11 @@ async fn serve(
     };
     let started_us = clock.now_us();
     let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
+    facts_tx.send_replace(Some(facts));
     status.send_modify(|s| {
-        s.setup_refused = false;
-        s.setup_changed = false;
-        s.facts = Some(facts);
-        s.ready_at_us = Some(ready_at_us);
+        s.path.setup_refused = false;
+        s.path.setup_changed = false;
+        s.path.ready_at_us = Some(ready_at_us);
     });
     tracing::info!(
         warmup_ms = (ready_at_us - started_us) / 1000,
@@ -431,14 +467,14 @@ async fn serve(
                 }
             }
             Some(Ask::Status) => match facts.status_bits.decode(&payload) {
-                Some(bits) => publish_fc_status(
+                Some(bits) => publish_autopilot_status(
                     status,
-                    FcStatus {
+                    AutopilotStatus {
                         t_us: clock.now_us(),
                         armed: bits.armed,
                         failsafe: bits.failsafe,
-                        override_on: bits.override_on,
-                        angle: bits.angle,
+                        override_active: bits.override_on,
+                        stabilised: bits.angle,
                     },
                 ),
                 None => tracing::warn!(
@@ -455,20 +491,21 @@ async fn serve(
     }
 }
 
-/// Hands iNav's latest status to the gate, saying in the journal when it changed.
-fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: FcStatus) {
-    let flags = |f: &FcStatus| (f.armed, f.failsafe, f.override_on, f.angle);
+/// Hands iNav's latest status to the gate, saying in the journal when it changed
+/// (in iNav's terms: the override mode, ANGLE).
+fn publish_autopilot_status(status: &watch::Sender<RouteStatus>, fc: AutopilotStatus) {
+    let flags = |f: &AutopilotStatus| (f.armed, f.failsafe, f.override_active, f.stabilised);
     status.send_modify(|s| {
-        if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
+        if s.path.autopilot.as_ref().map(flags) != Some(flags(&fc)) {
             tracing::info!(
                 armed = fc.armed,
                 failsafe = fc.failsafe,
-                override_on = fc.override_on,
-                angle = fc.angle,
+                override_on = fc.override_active,
+                angle = fc.stabilised,
                 "flight controller status"
             );
         }
-        s.fc = Some(fc);
+        s.path.autopilot = Some(fc);
     });
 }
 
@@ -479,7 +516,7 @@ async fn release(
     centre: &[u8],
     repeats: u32,
     period: Duration,
-) -> Result<u32, String> {
+) -> Result<u32, ReleaseError> {
     for n in 0..repeats.max(1) {
         if n > 0 {
             tokio::time::sleep(
@@ -489,7 +526,11 @@ async fn release(
         }
         port.send(centre)
             .await
-            .map_err(|e| format!("{n} of {repeats} written, then: {e}"))?;
+            .map_err(|source| ReleaseError::Write {
+                written: n,
+                repeats,
+                source,
+            })?;
         let _ = port.reply(msp::MSP_SET_RAW_RC, period).await;
     }
     Ok(repeats.max(1))
