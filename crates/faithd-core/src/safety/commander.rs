@@ -314,7 +314,7 @@ impl Commander {
 mod tests {
     use super::*;
     use crate::safety::gate::AutopilotStatus;
-    use crate::safety::gate::tests::WORDS;
+    use crate::safety::gate::test_words::WORDS;
     use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels};
 
     const PERIOD_US: i64 = 10_000;

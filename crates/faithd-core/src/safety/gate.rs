@@ -517,7 +517,8 @@ fn first_blocker(
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
+    use super::test_words::WORDS;
     use super::*;
     use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels};
 
@@ -528,17 +529,6 @@ pub(crate) mod tests {
         failsafe: false,
         override_active: true,
         stabilised: true,
-    };
-    pub(crate) const WORDS: RouteWords = RouteWords {
-        setup_refused: "set-up refused",
-        setup_changed: "set-up changed",
-        not_streaming: "not streaming",
-        no_status: "no status",
-        status_stale: "status stale",
-        failsafe: "its failsafe",
-        override_inactive: "override off",
-        stabilised_mode_off: "not stabilised",
-        warming_up: "warming up",
     };
     const READY: CommandPathStatus = CommandPathStatus {
         setup_refused: false,
@@ -781,4 +771,22 @@ pub(crate) mod tests {
             );
         }
     }
+}
+
+/// A route's words for the tests of the gate and the commander.
+#[cfg(test)]
+pub(crate) mod test_words {
+    use super::RouteWords;
+
+    pub(crate) const WORDS: RouteWords = RouteWords {
+        setup_refused: "set-up refused",
+        setup_changed: "set-up changed",
+        not_streaming: "not streaming",
+        no_status: "no status",
+        status_stale: "status stale",
+        failsafe: "its failsafe",
+        override_inactive: "override off",
+        stabilised_mode_off: "not stabilised",
+        warming_up: "warming up",
+    };
 }
