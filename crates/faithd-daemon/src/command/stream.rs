@@ -344,6 +344,32 @@ impl Held {
     }
 }
 
+/// What a slot is for, once it comes.
+enum Slot {
+    /// Write this: the roll frame (`None`) with `value_us`, or a request.
+    Due { ask: Option<Ask>, value_us: u16 },
+    /// The commander changed the value while a request waited: look again.
+    Changed,
+    /// The daemon asked the stream to release and end.
+    Stop(StopRequest),
+}
+
+/// The stream on an open, checked port: the slots, the value and the rotation.
+struct Serving<'a> {
+    port: &'a mut MspPort,
+    checked: &'a FcSettings,
+    facts: RouteFacts,
+    settings: &'a StreamSettings,
+    clock: &'a DaemonClock,
+    wanted: Held,
+    rotation: Rotation,
+    sent_us: Option<u16>,
+    last_roll_frame: tokio::time::Instant,
+    refusals: u64,
+}
+
+/// Streams until the port fails, the set-up changes or the daemon asks to stop: in
+/// each slot the roll frame when due, else the next request, and its reply read.
 async fn serve(
     port: &mut MspPort,
     checked: &FcSettings,
@@ -352,70 +378,115 @@ async fn serve(
     clock: &DaemonClock,
     channels: &mut Channels,
 ) -> Ended {
-    let Channels {
-        held,
-        status,
-        facts: facts_tx,
-        stop,
-        heartbeat,
-    } = channels;
-    let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, settings.roll_rxrange);
-    // Whatever was held before the port went away, the stream starts at the centre:
-    // that is the release a restarted or reconnected faithd owes the pilot.
-    held.mark_unchanged();
-    let mut wanted = Held {
-        wanted_us: NEUTRAL_US,
-        raised_at: None,
-        reverted: false,
-    };
-    let started_us = clock.now_us();
-    let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
-    facts_tx.send_replace(Some(facts));
-    status.send_modify(|s| {
-        s.path.setup_refused = false;
-        s.path.setup_changed = false;
-        s.path.ready_at_us = Some(ready_at_us);
-    });
-    tracing::info!(
-        warmup_ms = (ready_at_us - started_us) / 1000,
-        "MSP roll stream started at the stick centre"
-    );
-    let mut rotation = Rotation { n: 0, recheck: 0 };
-    let mut sent_us: Option<u16> = None;
-    let mut last_roll_frame = tokio::time::Instant::now();
-    let mut refusals = 0u64;
+    let mut serving = Serving::begin(port, checked, facts, settings, clock, channels);
     loop {
-        heartbeat.beat();
-        if held.has_changed().unwrap_or(false) {
-            wanted.set(*held.borrow_and_update());
+        channels.heartbeat.beat();
+        let (ask, value_us) = match serving.wait_for_slot(channels).await {
+            Slot::Due { ask, value_us } => (ask, value_us),
+            Slot::Changed => continue,
+            Slot::Stop(req) => return serving.release_and_end(req).await,
+        };
+        let payload = match serving.exchange(channels, ask, value_us).await {
+            Ok(Some(payload)) => payload,
+            Ok(None) => continue,
+            Err(ended) => return ended,
+        };
+        if let Some(ended) = serving.take_reply(&channels.status, ask, &payload) {
+            return ended;
         }
-        let value_us = wanted.value_us(settings.hold_bound);
-        // Due when the value changed, or when the next slot comes a period after the
-        // last roll frame: the roll frame and the requests then take turns.
-        let roll_due =
-            sent_us != Some(value_us) || port.next_slot() >= last_roll_frame + settings.roll_period;
+    }
+}
+
+impl<'a> Serving<'a> {
+    /// Starts at the centre, whatever was held before the port went away: that is
+    /// the release a restarted or reconnected faithd owes the pilot. Publishes the
+    /// route and from when iNav applies it.
+    fn begin(
+        port: &'a mut MspPort,
+        checked: &'a FcSettings,
+        facts: RouteFacts,
+        settings: &'a StreamSettings,
+        clock: &'a DaemonClock,
+        channels: &mut Channels,
+    ) -> Self {
+        channels.held.mark_unchanged();
+        let started_us = clock.now_us();
+        let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
+        channels.facts.send_replace(Some(facts));
+        channels.status.send_modify(|s| {
+            s.path.setup_refused = false;
+            s.path.setup_changed = false;
+            s.path.ready_at_us = Some(ready_at_us);
+        });
+        tracing::info!(
+            warmup_ms = (ready_at_us - started_us) / 1000,
+            "MSP roll stream started at the stick centre"
+        );
+        Self {
+            port,
+            checked,
+            facts,
+            settings,
+            clock,
+            wanted: Held {
+                wanted_us: NEUTRAL_US,
+                raised_at: None,
+                reverted: false,
+            },
+            rotation: Rotation { n: 0, recheck: 0 },
+            sent_us: None,
+            last_roll_frame: tokio::time::Instant::now(),
+            refusals: 0,
+        }
+    }
+
+    /// The roll frame with `roll_us`, aimed through iNav's `rxrange`.
+    fn frame(&self, roll_us: u16) -> Vec<u8> {
+        raw_rc_frame(
+            self.facts.roll_frame_index,
+            roll_us,
+            self.settings.roll_rxrange,
+        )
+    }
+
+    /// Waits for the next slot. The roll frame is due when the value changed, or
+    /// when the next slot comes a period after the last roll frame: the roll frame
+    /// and the requests then take turns. A stop wins over the slot, and a new value
+    /// takes the slot from a request (the roll frame is always first in line).
+    async fn wait_for_slot(&mut self, channels: &mut Channels) -> Slot {
+        if channels.held.has_changed().unwrap_or(false) {
+            self.wanted.set(*channels.held.borrow_and_update());
+        }
+        let value_us = self.wanted.value_us(self.settings.hold_bound);
+        let roll_due = self.sent_us != Some(value_us)
+            || self.port.next_slot() >= self.last_roll_frame + self.settings.roll_period;
         let ask = if roll_due {
             None
         } else {
-            Some(rotation.next())
+            Some(self.rotation.next())
         };
-        // The slot comes first; a stop wins over it, and a new value takes the slot
-        // from a request (the roll frame is always first in line).
         tokio::select! {
             biased;
-            Some(req) = stop.recv() => {
-                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
-                let _ = req.done.send(sent);
-                return Ended::Stopped;
+            Some(req) = channels.stop.recv() => Slot::Stop(req),
+            Ok(()) = channels.held.changed(), if ask.is_some() => {
+                self.wanted.set(*channels.held.borrow_and_update());
+                Slot::Changed
             }
-            Ok(()) = held.changed(), if ask.is_some() => {
-                wanted.set(*held.borrow_and_update());
-                continue;
-            }
-            _ = tokio::time::sleep_until(port.next_slot()) => {}
+            _ = tokio::time::sleep_until(self.port.next_slot()) => Slot::Due { ask, value_us },
         }
+    }
+
+    /// Writes the slot's command and reads its reply: `Ok(None)` when iNav refused
+    /// it (counted, and said in the journal at powers of two), `Err` when the
+    /// stream ends here.
+    async fn exchange(
+        &mut self,
+        channels: &mut Channels,
+        ask: Option<Ask>,
+        value_us: u16,
+    ) -> Result<Option<Vec<u8>>, Ended> {
         let (command, bytes) = match ask {
-            None => (msp::MSP_SET_RAW_RC, frame(value_us)),
+            None => (msp::MSP_SET_RAW_RC, self.frame(value_us)),
             Some(Ask::Rc) => (msp_port::MSP_RC, msp::encode_request(msp_port::MSP_RC, &[])),
             Some(Ask::Status) => (
                 msp_port::MSP2_INAV_STATUS,
@@ -423,54 +494,61 @@ async fn serve(
             ),
             Some(Ask::Recheck(r)) => (r.command(), r.request()),
         };
-        let slot_at = match port.send(&bytes).await {
+        let slot_at = match self.port.send(&bytes).await {
             Ok(at) => at,
-            Err(e) => return Ended::Failed(format!("write failed: {e}")),
+            Err(e) => return Err(Ended::Failed(format!("write failed: {e}"))),
         };
         if ask.is_none() {
-            sent_us = Some(value_us);
-            last_roll_frame = slot_at;
+            self.sent_us = Some(value_us);
+            self.last_roll_frame = slot_at;
         }
+        let timeout = self.settings.reply_timeout;
         let reply = tokio::select! {
             biased;
-            Some(req) = stop.recv() => {
-                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
-                let _ = req.done.send(sent);
-                return Ended::Stopped;
-            }
-            reply = port.reply(command, settings.reply_timeout) => reply,
+            Some(req) = channels.stop.recv() => return Err(self.release_and_end(req).await),
+            reply = self.port.reply(command, timeout) => reply,
         };
-        let payload = match reply {
-            Ok(payload) => payload,
+        match reply {
+            Ok(payload) => Ok(Some(payload)),
             Err(MspError::Refused { command }) => {
-                refusals += 1;
-                if refusals.is_power_of_two() {
+                self.refusals += 1;
+                if self.refusals.is_power_of_two() {
                     tracing::error!(
                         command,
-                        refusals,
+                        refusals = self.refusals,
                         "the flight controller refused an MSP command"
                     );
                 }
-                continue;
+                Ok(None)
             }
-            Err(e) => return Ended::Failed(e.to_string()),
-        };
+            Err(e) => Err(Ended::Failed(e.to_string())),
+        }
+    }
+
+    /// Hands a reply on: the roll iNav uses to the commander, iNav's status to the
+    /// gate, a set-up read again to the check (a change ends the stream).
+    fn take_reply(
+        &self,
+        status: &watch::Sender<RouteStatus>,
+        ask: Option<Ask>,
+        payload: &[u8],
+    ) -> Option<Ended> {
         match ask {
             None => {}
             Some(Ask::Rc) => {
-                if let Some(roll_us) = msp_port::rc_values(&payload).next() {
+                if let Some(roll_us) = msp_port::rc_values(payload).next() {
                     let report = RollReport {
-                        t_us: clock.now_us(),
+                        t_us: self.clock.now_us(),
                         roll_us,
                     };
                     status.send_modify(|s| s.last_report = Some(report));
                 }
             }
-            Some(Ask::Status) => match facts.status_bits.decode(&payload) {
+            Some(Ask::Status) => match self.facts.status_bits.decode(payload) {
                 Some(bits) => publish_autopilot_status(
                     status,
                     AutopilotStatus {
-                        t_us: clock.now_us(),
+                        t_us: self.clock.now_us(),
                         armed: bits.armed,
                         failsafe: bits.failsafe,
                         override_active: bits.override_on,
@@ -483,11 +561,18 @@ async fn serve(
                 ),
             },
             Some(Ask::Recheck(r)) => {
-                if let Some(what) = r.changed(checked, &payload) {
-                    return Ended::SetupChanged(what);
-                }
+                return r.changed(self.checked, payload).map(Ended::SetupChanged);
             }
         }
+        None
+    }
+
+    /// Writes the centre as the daemon asked and answers how many went out.
+    async fn release_and_end(&mut self, req: StopRequest) -> Ended {
+        let centre = self.frame(NEUTRAL_US);
+        let sent = release(self.port, &centre, req.repeats, self.settings.roll_period).await;
+        let _ = req.done.send(sent);
+        Ended::Stopped
     }
 }
 
