@@ -6,7 +6,10 @@
 
 use faithd::link::clock_sync::ClockSync;
 use faithd::link::telemetry;
-use faithd_core::safety::gate::{self, CommandPathStatus, FcStatus, GateConfig, PipelineStatus};
+use faithd::command::stream::INAV_MSP_WORDS;
+use faithd_core::safety::gate::{
+    self, AutopilotStatus, CommandPathStatus, GateConfig, PipelineStatus,
+};
 use faithd_core::safety::vehicle::VehicleState;
 use libfuzzer_sys::fuzz_target;
 use mavlink::dialects::common::MavMessage;
@@ -38,13 +41,14 @@ fuzz_target!(|data: &[u8]| {
         setup_changed: false,
         ready_at_us: Some(0),
         roll_not_in_effect: false,
-        fc: Some(FcStatus {
+        autopilot: Some(AutopilotStatus {
             t_us: rx_us,
             armed: true,
             failsafe: false,
-            override_on: true,
-            angle: true,
+            override_active: true,
+            stabilised: true,
         }),
+        words: &INAV_MSP_WORDS,
     };
     let state = gate::evaluate(&GateConfig::default(), &vehicle, &pipeline, &command, rx_us);
     if state.is_open() {

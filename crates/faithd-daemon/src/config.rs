@@ -194,27 +194,13 @@ fn moved_key(key: &str, reason: &str) -> Option<&'static str> {
     })
 }
 
-/// What one section cannot check alone: the gate's staleness against the daemon's
-/// period, and the roll channel against the switch.
+/// What one section cannot check alone: what the route to the autopilot asks of the
+/// switch and the roll, the gate's staleness against the daemon's period, and the
+/// roll channel against the switch.
 fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
     c.gate.validate()?;
     c.manoeuvre.validate()?;
-    let range = c.command.roll_rxrange_us;
-    for wanted_us in [
-        faithd_core::safety::rc::NEUTRAL_US,
-        faithd_core::safety::rc::NEUTRAL_US - c.manoeuvre.deflection_us,
-        faithd_core::safety::rc::NEUTRAL_US + c.manoeuvre.deflection_us,
-    ] {
-        check(
-            range.aim(wanted_us).is_some(),
-            "command.roll_rxrange_us",
-            || {
-                format!(
-                    "iNav scales roll from {range} to 1000..2000: no value faithd can send lands within 1 us of {wanted_us}"
-                )
-            },
-        )?;
-    }
+    c.command.validate_route(&c.gate, &c.manoeuvre)?;
     let g = &c.gate;
     check(
         g.pipeline_stale_us >= 2 * c.daemon.period_us,

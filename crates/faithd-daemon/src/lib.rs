@@ -10,6 +10,7 @@ pub mod source; // events: the DVS240 over libcaer and its clock, or the bench's
 pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
 pub mod cycle; // the pipeline thread: a window every period, load shedding
 pub mod command; // the roll sent to iNav (MSP RC override) and read back
+pub mod actuator; // the seam the daemon reaches the autopilot's roll through
 pub mod record; // the flight's events, MAVLink and windows on disk, within a budget
 pub mod shutdown; // one stop for a run's tasks and threads, and the wait for them
 pub mod supervise; // heartbeats of every task for systemd's watchdog; panics

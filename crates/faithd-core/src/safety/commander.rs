@@ -1,8 +1,8 @@
 //! The commander's rules: what the roll channel holds at every moment, and why.
 //!
 //! One step takes everything the daemon knows (the vehicle, the pipeline, the
-//! command path to iNav, the newest roll decision, the newest value iNav reports
-//! using on roll) and the time, and returns the gate, the value the roll channel must
+//! command path to the autopilot, the newest roll decision, the newest value the
+//! autopilot reports using on roll) and the time, and returns the gate, the value the roll channel must
 //! hold, and every change, each named. The rules it keeps:
 //!
 //! - a roll decision is acted on only while it is fresh (two pipeline periods);
@@ -17,9 +17,11 @@
 use serde::Serialize;
 
 use super::confirm::{RollConfirm, Verdict};
-use super::gate::{self, Blocker, CommandPathStatus, GateConfig, GateState, PipelineStatus};
+use super::gate::{
+    self, Blocker, CommandPathStatus, GateConfig, GateState, PipelineStatus, RouteWords,
+};
 use super::manoeuvre::{Manoeuvre, ManoeuvreConfig, RollRequest, Transition};
-use super::rc::{NEUTRAL_US, RxRange};
+use super::rc::NEUTRAL_US;
 use super::vehicle::VehicleState;
 use crate::decide::RollDirection;
 
@@ -27,13 +29,58 @@ use crate::decide::RollDirection;
 pub struct CommanderConfig {
     pub gate: GateConfig,
     pub manoeuvre: ManoeuvreConfig,
-    /// iNav's calibration of the roll channel: what it reports using for a roll is
-    /// the roll as it lands through this range.
-    pub roll_rxrange: RxRange,
+    /// What the autopilot reports using for each roll: the route works it out from
+    /// the autopilot's own calibration (iNav scales roll by its `rxrange`).
+    pub reported_roll: ReportedRoll,
     /// A roll iNav does not report using within this is a fault.
     pub confirm_within_us: i64,
     /// A roll decision older than this is stale and not acted on.
     pub decision_fresh_us: i64,
+}
+
+/// The value the autopilot reports using while it takes a roll left or right: what
+/// faithd commands, unless the autopilot's calibration of the channel moves it. The
+/// roll check compares reports with these, not with the commanded values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReportedRoll {
+    pub left_us: u16,
+    pub right_us: u16,
+}
+
+impl ReportedRoll {
+    /// An autopilot that uses the values as commanded.
+    pub fn as_commanded(manoeuvre: &ManoeuvreConfig) -> Self {
+        Self {
+            left_us: manoeuvre.roll_value_us(RollDirection::Left),
+            right_us: manoeuvre.roll_value_us(RollDirection::Right),
+        }
+    }
+
+    /// The value reported during a roll in `direction`.
+    pub fn for_direction(self, direction: RollDirection) -> u16 {
+        match direction {
+            RollDirection::Left => self.left_us,
+            RollDirection::Right => self.right_us,
+        }
+    }
+}
+
+/// What the route to the autopilot last reported, as the commander reads it: the
+/// command path's state and the newest roll value the autopilot reports using.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RouteStatus {
+    pub path: CommandPathStatus,
+    pub last_report: Option<RollReport>,
+}
+
+impl RouteStatus {
+    /// A route that has read nothing yet.
+    pub const fn unchecked(words: &'static RouteWords) -> Self {
+        Self {
+            path: CommandPathStatus::unchecked(words),
+            last_report: None,
+        }
+    }
 }
 
 /// The pipeline asked for a roll at `t_us`; `last_event_us` is the newest event of
@@ -45,7 +92,8 @@ pub struct RollCall {
     pub last_event_us: i64,
 }
 
-/// The roll channel's value iNav reported using (MSP_RC), read at daemon time `t_us`.
+/// The roll channel's value the autopilot reported using (iNav: MSP_RC), read at
+/// daemon time `t_us`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RollReport {
     pub t_us: i64,
@@ -57,8 +105,8 @@ pub struct RollReport {
 pub struct Inputs<'a> {
     pub vehicle: &'a VehicleState,
     pub pipeline: &'a PipelineStatus,
-    /// The MSP stream's state; its `roll_not_in_effect` is ignored (the commander
-    /// keeps that latch itself).
+    /// The route's state; its `roll_not_in_effect` is ignored (the commander keeps
+    /// that latch itself).
     pub path: &'a CommandPathStatus,
     /// The newest roll call, when it is new since the last step.
     pub call: Option<RollCall>,
@@ -221,11 +269,7 @@ impl Commander {
                 });
                 self.call = None;
                 self.first_call_event_us = None;
-                let used_us = self
-                    .config
-                    .roll_rxrange
-                    .aim(value_us)
-                    .map_or(value_us, |(_, used)| used);
+                let used_us = self.config.reported_roll.for_direction(direction);
                 self.confirm.start(used_us, now_us);
             }
             Some(Transition::Completed) => {
@@ -269,7 +313,8 @@ impl Commander {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::safety::gate::FcStatus;
+    use crate::safety::gate::AutopilotStatus;
+    use crate::safety::gate::test_words::WORDS;
     use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels};
 
     const PERIOD_US: i64 = 10_000;
@@ -278,7 +323,7 @@ mod tests {
         CommanderConfig {
             gate: GateConfig::default(),
             manoeuvre: ManoeuvreConfig::default(),
-            roll_rxrange: RxRange::DEFAULT,
+            reported_roll: ReportedRoll::as_commanded(&ManoeuvreConfig::default()),
             confirm_within_us: 200_000,
             decision_fresh_us: 2 * PERIOD_US,
         }
@@ -321,13 +366,14 @@ mod tests {
                 setup_changed: false,
                 ready_at_us: Some(0),
                 roll_not_in_effect: false,
-                fc: Some(FcStatus {
+                autopilot: Some(AutopilotStatus {
                     t_us: now_us,
                     armed: true,
                     failsafe: false,
-                    override_on: self.switch_us >= 1700,
-                    angle: true,
+                    override_active: self.switch_us >= 1700,
+                    stabilised: true,
                 }),
+                words: &WORDS,
             };
             (vehicle, pipeline, path)
         }
@@ -500,15 +546,25 @@ mod tests {
     }
 
     #[test]
-    fn the_check_expects_the_roll_as_it_lands_through_rxrange() {
+    fn the_check_expects_the_roll_as_the_route_says_it_lands() {
+        // An autopilot whose calibration makes faithd's 1800 read back as 1799.
+        let used = 1799;
         let mut c = Commander::new(CommanderConfig {
-            roll_rxrange: RxRange::new(1100, 1900).unwrap(),
+            reported_roll: ReportedRoll {
+                left_us: 1201,
+                right_us: used,
+            },
             ..config()
         });
         let auto = World { switch_us: 1900 };
         step(&mut c, &auto, 0, Some(call(0)), None);
-        let (_, used) = RxRange::new(1100, 1900).unwrap().aim(1800).unwrap();
-        let s = step(&mut c, &auto, 30_000, None, Some(used));
+        let s = step(&mut c, &auto, 30_000, None, Some(1800));
+        assert!(
+            !matches!(s.events[..], [Event::RollConfirmed { .. }]),
+            "the commanded value is not what this autopilot reports: {:?}",
+            s.events
+        );
+        let s = step(&mut c, &auto, 40_000, None, Some(used));
         assert!(
             matches!(s.events[..], [Event::RollConfirmed { .. }]),
             "{:?}",

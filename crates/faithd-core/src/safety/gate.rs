@@ -4,15 +4,19 @@
 //! same first reason for the same situation: the link is up, the pilot's switch is in
 //! AUTO, the vehicle is armed, RC, heartbeat and attitude data are fresh, and the
 //! pipeline is healthy. Pure: the caller passes the time.
+//!
+//! The command path (the route that carries the roll to the autopilot) comes in as a
+//! [`CommandPathStatus`] that names no autopilot's transport: a set-up accepted or
+//! not, an override active, a stabilised mode, a time from which the autopilot takes
+//! the roll. The route says how its autopilot words each of these in the journal
+//! ([`RouteWords`]), so a user still reads "iNav's MSP RC OVERRIDE mode" while the
+//! gate knows only "the override".
 
 use serde::{Deserialize, Serialize};
 
 use super::rc::{PwmUs, RcChannel};
 use super::vehicle::VehicleState;
 use crate::invalid::{Invalid, check};
-
-/// iNav's first AUX channel: its modes (MSP RC OVERRIDE among them) bind to AUX.
-pub const FIRST_AUX_CHANNEL: u8 = 5;
 
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -33,9 +37,10 @@ pub struct GateConfig {
     pub heartbeat_stale_us: i64,
     /// A pipeline that has not finished a cycle for this long is unhealthy.
     pub pipeline_stale_us: i64,
-    /// The flight controller's status (read over MSP every send period) older than
-    /// this closes the gate.
-    pub fc_status_stale_us: i64,
+    /// The autopilot's own status (read by the route to it, e.g. iNav's over MSP)
+    /// older than this closes the gate. The key keeps its published name.
+    #[serde(rename = "fc_status_stale_us")]
+    pub autopilot_status_stale_us: i64,
 }
 
 impl Default for GateConfig {
@@ -49,27 +54,17 @@ impl Default for GateConfig {
             attitude_stale_us: 100_000,
             heartbeat_stale_us: 2_500_000,
             pipeline_stale_us: 100_000,
-            fc_status_stale_us: 250_000,
+            autopilot_status_stale_us: 250_000,
         }
     }
 }
 
 impl GateConfig {
-    /// `[gate]`: the switch on an AUX channel, an AUTO range that leaves the pilot a
-    /// MANUAL end, and staleness limits between 1 ms and 10 s.
+    /// `[gate]`: an AUTO range that leaves the pilot a MANUAL end, and staleness
+    /// limits between 1 ms and 10 s. Which channels may carry the switch is the
+    /// route's to say (iNav binds its modes to AUX channels only).
     pub fn validate(&self) -> Result<(), Invalid> {
         let g = self;
-        check(
-            g.switch_channel.get() >= FIRST_AUX_CHANNEL,
-            "gate.switch_channel",
-            || {
-                format!(
-                    "must be an AUX channel {FIRST_AUX_CHANNEL} to {} (iNav binds its MSP RC OVERRIDE mode to AUX channels), got {}",
-                    RcChannel::MAX,
-                    g.switch_channel
-                )
-            },
-        )?;
         let (min, max) = (g.auto_min_us.us(), g.auto_max_us.us());
         check(
             min <= max && min >= 800 && max <= 2200,
@@ -89,7 +84,7 @@ impl GateConfig {
             (g.attitude_stale_us, "gate.attitude_stale_us"),
             (g.heartbeat_stale_us, "gate.heartbeat_stale_us"),
             (g.pipeline_stale_us, "gate.pipeline_stale_us"),
-            (g.fc_status_stale_us, "gate.fc_status_stale_us"),
+            (g.autopilot_status_stale_us, "gate.fc_status_stale_us"),
         ] {
             check((1000..=10_000_000).contains(&v), key, || {
                 format!("must be 1 ms to 10 s, got {v}")
@@ -117,39 +112,76 @@ pub enum PipelineProblem {
     NoAttitude,
 }
 
-/// The flight controller's own state, read over the MSP stream (MSP2_INAV_STATUS)
-/// at every send period: faster than MAVLink's 1 Hz HEARTBEAT, and it says whether
-/// iNav's MSP RC OVERRIDE mode is on, i.e. whether iNav would take faithd's roll.
+/// The autopilot's own state as the route reads it (iNav: MSP2_INAV_STATUS at every
+/// send period, faster than MAVLink's 1 Hz HEARTBEAT): whether it would take
+/// faithd's roll now, and whether a roll there means a bank.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FcStatus {
+pub struct AutopilotStatus {
+    /// Daemon time of the read: the gate judges its freshness.
     pub t_us: i64,
     pub armed: bool,
-    /// iNav's FAILSAFE flight mode (radio lost, or the pilot's failsafe switch).
+    /// The autopilot's own failsafe (radio lost, or the pilot's failsafe switch).
     pub failsafe: bool,
-    /// iNav's MSP RC OVERRIDE mode (on only with the pilot's switch in AUTO).
-    pub override_on: bool,
-    /// iNav flies in ANGLE mode (fc/fc_core.c sets the flight mode; MSP2_INAV_STATUS
-    /// reports it, fc/fc_msp_box.c). Outside it the roll stick commands a rotation
-    /// rate (flight/pid.c): 1.5 s of a deflected stick rolls the vehicle over.
-    pub angle: bool,
+    /// The autopilot's override of the pilot's roll is active (iNav: its MSP RC
+    /// OVERRIDE mode, on only with the pilot's switch in AUTO).
+    pub override_active: bool,
+    /// The autopilot stabilises attitude, so a roll input commands a bank (iNav:
+    /// ANGLE mode). Without it a roll input commands a rotation rate, and 1.5 s of a
+    /// deflected stick rolls the vehicle over.
+    pub stabilised: bool,
 }
 
-/// What the roll command path (the MSP stream to iNav) last reported.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+/// How a route words the command path's blockers in the journal. The gate only
+/// carries the words; every route (the MSP stream to iNav today) has one table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RouteWords {
+    pub setup_refused: &'static str,
+    pub setup_changed: &'static str,
+    pub not_streaming: &'static str,
+    pub no_status: &'static str,
+    /// Followed by the age: "(N ms)".
+    pub status_stale: &'static str,
+    /// In "the autopilot is in failsafe (...)".
+    pub failsafe: &'static str,
+    pub override_inactive: &'static str,
+    pub stabilised_mode_off: &'static str,
+    /// Followed by the time left: "(N ms to go)".
+    pub warming_up: &'static str,
+}
+
+/// What the roll command path (the route to the autopilot) last reported.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CommandPathStatus {
-    /// The flight controller's set-up was read and refused (the journal has why).
+    /// The autopilot's set-up was read and refused (the journal has why).
     pub setup_refused: bool,
     /// The set-up changed in flight (the journal has what): faithd stopped
-    /// streaming until it is read and judged again.
+    /// commanding until it is read and judged again.
     pub setup_changed: bool,
-    /// Daemon time from which iNav applies the stream: the stream started plus
-    /// iNav's own recovery delay. `None` while the port is closed or unchecked.
+    /// Daemon time from which the autopilot takes the route's roll: the route
+    /// started plus the autopilot's own recovery delay. `None` while the route is
+    /// down or unchecked.
     pub ready_at_us: Option<i64>,
-    /// A roll did not take effect on the flight controller; held until the pilot
-    /// takes the switch out of AUTO.
+    /// A roll did not take effect on the autopilot; held until the pilot takes the
+    /// switch out of AUTO.
     pub roll_not_in_effect: bool,
-    /// The flight controller's last status reply; `None` before the first.
-    pub fc: Option<FcStatus>,
+    /// The autopilot's last status; `None` before the first.
+    pub autopilot: Option<AutopilotStatus>,
+    /// The route's words for the blockers above.
+    pub words: &'static RouteWords,
+}
+
+impl CommandPathStatus {
+    /// A route that has read nothing yet.
+    pub const fn unchecked(words: &'static RouteWords) -> Self {
+        Self {
+            setup_refused: false,
+            setup_changed: false,
+            ready_at_us: None,
+            roll_not_in_effect: false,
+            autopilot: None,
+            words,
+        }
+    }
 }
 
 /// The first condition that keeps the gate closed.
@@ -175,9 +207,11 @@ pub enum Blocker {
         age_us: i64,
     },
     Disarmed,
-    /// The autopilot is in failsafe: HEARTBEAT system_status, or iNav's FAILSAFE mode.
+    /// The autopilot is in failsafe: HEARTBEAT system_status, or its own status.
     AutopilotFailsafe {
         source: FailsafeSource,
+        #[serde(skip)]
+        says: &'static str,
     },
     NoAttitude,
     AttitudeStale {
@@ -190,17 +224,40 @@ pub enum Blocker {
     PipelineUnhealthy {
         problem: PipelineProblem,
     },
-    FcSetupRefused,
-    FcSetupChanged,
-    CommandPortDown,
-    NoFcStatus,
-    FcStatusStale {
-        age_us: i64,
+    /// The route read the autopilot's set-up and refused it.
+    SetupRefused {
+        #[serde(skip)]
+        says: &'static str,
     },
-    /// iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll.
-    OverrideModeOff,
-    /// iNav is not in ANGLE mode: a roll stick would command a rate, not a bank.
-    AngleModeOff,
+    /// The autopilot's set-up changed in flight: read and judged again first.
+    SetupChanged {
+        #[serde(skip)]
+        says: &'static str,
+    },
+    /// The route to the autopilot is not carrying the roll.
+    CommandPortDown {
+        #[serde(skip)]
+        says: &'static str,
+    },
+    NoAutopilotStatus {
+        #[serde(skip)]
+        says: &'static str,
+    },
+    AutopilotStatusStale {
+        age_us: i64,
+        #[serde(skip)]
+        says: &'static str,
+    },
+    /// The autopilot reports its override off: it would not take faithd's roll.
+    OverrideInactive {
+        #[serde(skip)]
+        says: &'static str,
+    },
+    /// The autopilot does not stabilise attitude: a roll would command a rate.
+    StabilisedModeOff {
+        #[serde(skip)]
+        says: &'static str,
+    },
     /// No SYS_STATUS has said whether the pilot's radio reaches the autopilot.
     NoRadioStatus,
     /// SYS_STATUS stopped: the radio's last known health is too old to trust.
@@ -209,6 +266,8 @@ pub enum Blocker {
     },
     OverrideWarmingUp {
         remaining_us: i64,
+        #[serde(skip)]
+        says: &'static str,
     },
     RollNotInEffect,
 }
@@ -229,29 +288,18 @@ impl std::fmt::Display for Blocker {
                 f,
                 "the autopilot reports the pilot's radio lost (SYS_STATUS RC receiver unhealthy)"
             ),
-            Blocker::AutopilotFailsafe { source } => match source {
-                FailsafeSource::Heartbeat => write!(
-                    f,
-                    "the autopilot is in failsafe (HEARTBEAT system_status CRITICAL or worse)"
-                ),
-                FailsafeSource::FcStatus => {
-                    write!(f, "the autopilot is in failsafe (iNav's FAILSAFE mode)")
-                }
-            },
-            Blocker::NoFcStatus => write!(f, "no status from the flight controller over MSP yet"),
-            Blocker::FcStatusStale { age_us } => write!(
-                f,
-                "flight controller status over MSP stale ({} ms)",
-                age_us / 1000
-            ),
-            Blocker::OverrideModeOff => write!(
-                f,
-                "iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll"
-            ),
-            Blocker::AngleModeOff => write!(
-                f,
-                "iNav is not in ANGLE mode: a roll stick would command a rotation rate, not a bank (put ANGLE on the AUTO switch: `faithd check-fc`)"
-            ),
+            Blocker::AutopilotFailsafe { says, .. } => {
+                write!(f, "the autopilot is in failsafe ({says})")
+            }
+            Blocker::NoAutopilotStatus { says }
+            | Blocker::OverrideInactive { says }
+            | Blocker::StabilisedModeOff { says }
+            | Blocker::SetupRefused { says }
+            | Blocker::SetupChanged { says }
+            | Blocker::CommandPortDown { says } => f.write_str(says),
+            Blocker::AutopilotStatusStale { age_us, says } => {
+                write!(f, "{says} ({} ms)", age_us / 1000)
+            }
             Blocker::NoRadioStatus => write!(
                 f,
                 "no SYS_STATUS received yet: the pilot's radio health is unknown"
@@ -279,22 +327,9 @@ impl std::fmt::Display for Blocker {
                 )
             }
             Blocker::PipelineUnhealthy { problem } => write!(f, "pipeline unhealthy: {problem:?}"),
-            Blocker::FcSetupRefused => {
-                write!(
-                    f,
-                    "flight controller set-up refused (see `faithd check-fc`)"
-                )
+            Blocker::OverrideWarmingUp { remaining_us, says } => {
+                write!(f, "{says} ({} ms to go)", remaining_us / 1000)
             }
-            Blocker::FcSetupChanged => write!(
-                f,
-                "the flight controller's set-up changed in flight (the journal says what): faithd reads it again before it commands"
-            ),
-            Blocker::CommandPortDown => write!(f, "MSP command port not streaming"),
-            Blocker::OverrideWarmingUp { remaining_us } => write!(
-                f,
-                "iNav applies the MSP override only after its recovery delay ({} ms to go)",
-                remaining_us / 1000
-            ),
             Blocker::RollNotInEffect => write!(
                 f,
                 "the last roll did not take effect on the flight controller (switch to MANUAL and back once fixed)"
@@ -309,8 +344,8 @@ impl std::fmt::Display for Blocker {
 pub enum FailsafeSource {
     /// MAVLink HEARTBEAT system_status CRITICAL or worse.
     Heartbeat,
-    /// MSP2_INAV_STATUS: the FAILSAFE flight mode.
-    FcStatus,
+    /// The route's read of the autopilot's status (iNav: its FAILSAFE flight mode).
+    AutopilotStatus,
 }
 
 /// Open, or closed with the first reason.
@@ -326,6 +361,9 @@ impl GateState {
         matches!(self, GateState::Open)
     }
 }
+
+/// Why a HEARTBEAT says failsafe: MAVLink's words, the link being MAVLink's.
+const HEARTBEAT_FAILSAFE: &str = "HEARTBEAT system_status CRITICAL or worse";
 
 /// Evaluates the gate at `now_us` (daemon time).
 pub fn evaluate(
@@ -350,39 +388,57 @@ fn command_blocker(
     command: &CommandPathStatus,
     now_us: i64,
 ) -> Option<Blocker> {
+    let words = command.words;
     if command.setup_refused {
-        return Some(Blocker::FcSetupRefused);
-    }
-    if command.setup_changed {
-        return Some(Blocker::FcSetupChanged);
-    }
-    let Some(ready_at_us) = command.ready_at_us else {
-        return Some(Blocker::CommandPortDown);
-    };
-    let Some(fc) = &command.fc else {
-        return Some(Blocker::NoFcStatus);
-    };
-    let age_us = now_us - fc.t_us;
-    if age_us > config.fc_status_stale_us {
-        return Some(Blocker::FcStatusStale { age_us });
-    }
-    if fc.failsafe {
-        return Some(Blocker::AutopilotFailsafe {
-            source: FailsafeSource::FcStatus,
+        return Some(Blocker::SetupRefused {
+            says: words.setup_refused,
         });
     }
-    if !fc.armed {
+    if command.setup_changed {
+        return Some(Blocker::SetupChanged {
+            says: words.setup_changed,
+        });
+    }
+    let Some(ready_at_us) = command.ready_at_us else {
+        return Some(Blocker::CommandPortDown {
+            says: words.not_streaming,
+        });
+    };
+    let Some(ap) = &command.autopilot else {
+        return Some(Blocker::NoAutopilotStatus {
+            says: words.no_status,
+        });
+    };
+    let age_us = now_us - ap.t_us;
+    if age_us > config.autopilot_status_stale_us {
+        return Some(Blocker::AutopilotStatusStale {
+            age_us,
+            says: words.status_stale,
+        });
+    }
+    if ap.failsafe {
+        return Some(Blocker::AutopilotFailsafe {
+            source: FailsafeSource::AutopilotStatus,
+            says: words.failsafe,
+        });
+    }
+    if !ap.armed {
         return Some(Blocker::Disarmed);
     }
-    if !fc.angle {
-        return Some(Blocker::AngleModeOff);
+    if !ap.stabilised {
+        return Some(Blocker::StabilisedModeOff {
+            says: words.stabilised_mode_off,
+        });
     }
-    if !fc.override_on {
-        return Some(Blocker::OverrideModeOff);
+    if !ap.override_active {
+        return Some(Blocker::OverrideInactive {
+            says: words.override_inactive,
+        });
     }
     if now_us < ready_at_us {
         return Some(Blocker::OverrideWarmingUp {
             remaining_us: ready_at_us - now_us,
+            says: words.warming_up,
         });
     }
     if command.roll_not_in_effect {
@@ -437,6 +493,7 @@ fn first_blocker(
     if hb.in_failsafe() {
         return Some(Blocker::AutopilotFailsafe {
             source: FailsafeSource::Heartbeat,
+            says: HEARTBEAT_FAILSAFE,
         });
     }
     let Some(att_us) = vehicle.last_attitude_us else {
@@ -461,23 +518,25 @@ fn first_blocker(
 
 #[cfg(test)]
 mod tests {
+    use super::test_words::WORDS;
     use super::*;
     use crate::safety::vehicle::{Heartbeat, RadioHealth, RcChannels};
 
     const NOW: i64 = 10_000_000;
-    const FC_OK: FcStatus = FcStatus {
+    const AP_OK: AutopilotStatus = AutopilotStatus {
         t_us: NOW - 10_000,
         armed: true,
         failsafe: false,
-        override_on: true,
-        angle: true,
+        override_active: true,
+        stabilised: true,
     };
     const READY: CommandPathStatus = CommandPathStatus {
         setup_refused: false,
         setup_changed: false,
         ready_at_us: Some(0),
         roll_not_in_effect: false,
-        fc: Some(FC_OK),
+        autopilot: Some(AP_OK),
+        words: &WORDS,
     };
 
     #[test]
@@ -491,14 +550,14 @@ mod tests {
                     setup_refused: true,
                     ..READY
                 },
-                "fc_setup_refused",
+                "setup_refused",
             ),
             (
                 CommandPathStatus {
                     setup_changed: true,
                     ..READY
                 },
-                "fc_setup_changed",
+                "setup_changed",
             ),
             (
                 CommandPathStatus {
@@ -521,22 +580,28 @@ mod tests {
                 },
                 "roll_not_in_effect",
             ),
-            (CommandPathStatus { fc: None, ..READY }, "no_fc_status"),
             (
                 CommandPathStatus {
-                    fc: Some(FcStatus {
-                        t_us: now - 300_000,
-                        ..FC_OK
-                    }),
+                    autopilot: None,
                     ..READY
                 },
-                "fc_status_stale",
+                "no_autopilot_status",
             ),
             (
                 CommandPathStatus {
-                    fc: Some(FcStatus {
+                    autopilot: Some(AutopilotStatus {
+                        t_us: now - 300_000,
+                        ..AP_OK
+                    }),
+                    ..READY
+                },
+                "autopilot_status_stale",
+            ),
+            (
+                CommandPathStatus {
+                    autopilot: Some(AutopilotStatus {
                         failsafe: true,
-                        ..FC_OK
+                        ..AP_OK
                     }),
                     ..READY
                 },
@@ -544,9 +609,9 @@ mod tests {
             ),
             (
                 CommandPathStatus {
-                    fc: Some(FcStatus {
+                    autopilot: Some(AutopilotStatus {
                         armed: false,
-                        ..FC_OK
+                        ..AP_OK
                     }),
                     ..READY
                 },
@@ -554,29 +619,42 @@ mod tests {
             ),
             (
                 CommandPathStatus {
-                    fc: Some(FcStatus {
-                        override_on: false,
-                        ..FC_OK
+                    autopilot: Some(AutopilotStatus {
+                        override_active: false,
+                        ..AP_OK
                     }),
                     ..READY
                 },
-                "override_mode_off",
+                "override_inactive",
             ),
             (
                 CommandPathStatus {
-                    fc: Some(FcStatus {
-                        angle: false,
-                        ..FC_OK
+                    autopilot: Some(AutopilotStatus {
+                        stabilised: false,
+                        ..AP_OK
                     }),
                     ..READY
                 },
-                "angle_mode_off",
+                "stabilised_mode_off",
             ),
         ];
         for (path, kind) in cases {
             let state = evaluate(&cfg, &v, &p, &path, now);
             assert_eq!(serde_json::to_value(state).unwrap()["kind"], kind);
         }
+        // The journal reads the route's words, with the age or the time left.
+        let texts: Vec<String> = cases
+            .iter()
+            .map(|(path, _)| match evaluate(&cfg, &v, &p, path, now) {
+                GateState::Closed(b) => b.to_string(),
+                GateState::Open => String::new(),
+            })
+            .collect();
+        assert_eq!(texts[0], "set-up refused");
+        assert_eq!(texts[3], "warming up (300 ms to go)");
+        assert_eq!(texts[6], "status stale (300 ms)");
+        assert_eq!(texts[7], "the autopilot is in failsafe (its failsafe)");
+        assert_eq!(texts[10], "not stabilised");
         let (mut manual, _) = all_good(now);
         manual.rc.as_mut().unwrap().values_us[5] = 1000;
         let state = evaluate(&cfg, &manual, &p, &cases[3].0, now);
@@ -693,4 +771,22 @@ mod tests {
             );
         }
     }
+}
+
+/// A route's words for the tests of the gate and the commander.
+#[cfg(test)]
+pub(crate) mod test_words {
+    use super::RouteWords;
+
+    pub(crate) const WORDS: RouteWords = RouteWords {
+        setup_refused: "set-up refused",
+        setup_changed: "set-up changed",
+        not_streaming: "not streaming",
+        no_status: "no status",
+        status_stale: "status stale",
+        failsafe: "its failsafe",
+        override_inactive: "override off",
+        stabilised_mode_off: "not stabilised",
+        warming_up: "warming up",
+    };
 }

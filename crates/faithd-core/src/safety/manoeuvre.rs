@@ -12,15 +12,6 @@ use super::rc::{NEUTRAL_US, RcChannel};
 use crate::decide::RollDirection;
 use crate::invalid::{Invalid, check};
 
-/// iNav's serial task runs at 100 Hz and serves one MSP command per port per run
-/// (fc/fc_tasks.c TASK_SERIAL; msp/msp_serial.c "process one command at a time"):
-/// faithd sends one command per slot of this length, half of what the port serves.
-pub const MSP_SLOT_US: i64 = 20_000;
-
-/// iNav drops the MSP override's signal when no frame came for this long (rx/msp.c,
-/// `rxSignalTimeout = DELAY_5_HZ`).
-pub const INAV_MSP_SIGNAL_TIMEOUT_US: i64 = 200_000;
-
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ManoeuvreConfig {
@@ -29,8 +20,10 @@ pub struct ManoeuvreConfig {
     /// Roll stick deflection from iNav's centre (1500), microseconds (300 is 60% of
     /// full stick; in iNav's ANGLE mode that is 60% of max_angle_inclination_rll).
     pub deflection_us: u16,
-    /// How often the MSP stream sends the roll frame (the centre while idle): a whole
-    /// number of MSP slots, at least two, so the stream's other requests fit.
+    /// How often the route re-sends the held roll (the centre while idle), so that
+    /// the autopilot does not time the override out. What periods a route can keep
+    /// is the route's to check (iNav's MSP stream: whole MSP slots, under half of
+    /// iNav's signal timeout).
     pub resend_period_us: i64,
     /// How many times the centre is written when faithd stops, one period apart, so
     /// that one lost frame cannot leave the stick deflected.
@@ -44,7 +37,8 @@ impl Default for ManoeuvreConfig {
         Self {
             roll_channel: const { RcChannel::constant(1) },
             deflection_us: 300,
-            resend_period_us: 2 * MSP_SLOT_US,
+            // Two of the MSP stream's 20 ms slots: the roll frame every other slot.
+            resend_period_us: 40_000,
             release_repeats: 3,
             cooldown_us: 1_000_000,
         }
@@ -66,8 +60,8 @@ pub const REMOVED_KEYS: [(&str, &str); 2] = [
 
 impl ManoeuvreConfig {
     /// `[manoeuvre]`: roll on iNav's channel 1, a deflection that keeps the stick in
-    /// 1000..2000, a roll frame period the MSP slots can carry and iNav does not time
-    /// out, release and cool-down counts the stream can keep.
+    /// 1000..2000, release and cool-down counts the route can keep. The re-send
+    /// period is checked by the route that keeps it.
     pub fn validate(&self) -> Result<(), Invalid> {
         let m = self;
         check(m.roll_channel.get() == 1, "manoeuvre.roll_channel", || {
@@ -83,24 +77,6 @@ impl ManoeuvreConfig {
                 format!(
                     "must be 1..500 (the stick stays within 1000..2000 about iNav's centre 1500), got {}",
                     m.deflection_us
-                )
-            },
-        )?;
-        let max_period_us = INAV_MSP_SIGNAL_TIMEOUT_US / 2;
-        check(
-            m.resend_period_us >= 2 * MSP_SLOT_US
-                && m.resend_period_us <= max_period_us
-                && m.resend_period_us % MSP_SLOT_US == 0,
-            "manoeuvre.resend_period_us",
-            || {
-                format!(
-                    "must be a multiple of {} ms from {} to {} ms: iNav serves one MSP command per port every 10 ms and faithd uses at most half of that (one command per {} ms, the roll frame every other one at most), and iNav drops the override after {} ms without a frame; got {}",
-                    MSP_SLOT_US / 1000,
-                    2 * MSP_SLOT_US / 1000,
-                    max_period_us / 1000,
-                    MSP_SLOT_US / 1000,
-                    INAV_MSP_SIGNAL_TIMEOUT_US / 1000,
-                    m.resend_period_us
                 )
             },
         )?;
@@ -280,23 +256,5 @@ mod tests {
         let c = ManoeuvreConfig::default();
         assert_eq!(c.roll_value_us(RollDirection::Left), 1200);
         assert_eq!(c.roll_value_us(RollDirection::Right), 1800);
-    }
-
-    #[test]
-    fn the_roll_frame_period_fits_the_msp_budget_and_inavs_timeout() {
-        for (period_us, ok) in [
-            (20_000, false),
-            (30_000, false),
-            (40_000, true),
-            (60_000, true),
-            (100_000, true),
-            (120_000, false),
-        ] {
-            let c = ManoeuvreConfig {
-                resend_period_us: period_us,
-                ..Default::default()
-            };
-            assert_eq!(c.validate().is_ok(), ok, "{period_us}");
-        }
     }
 }

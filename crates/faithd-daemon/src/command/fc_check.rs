@@ -8,9 +8,10 @@
 
 use std::time::Duration;
 
-use super::CommandConfig;
-use faithd_core::safety::gate::{FIRST_AUX_CHANNEL, GateConfig};
-use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
+use super::rxrange::RxRange;
+use super::{CommandConfig, FIRST_AUX_CHANNEL};
+use faithd_core::safety::gate::GateConfig;
+use faithd_core::safety::rc::NEUTRAL_US;
 
 use super::msp_port::{self, MspError, MspPort};
 
@@ -254,18 +255,122 @@ pub fn mavlink_stream_period_us(rate: u8) -> Option<i64> {
     (rate > 0).then(|| (50 / i64::from(rate.min(50)) + 1) * MAVLINK_TICK_US)
 }
 
-/// Judges the set-up. Pure.
-pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
-    let mut items = Vec::new();
-    let mut item = |what, found: String, problem: Option<String>, fix: Option<String>| {
-        items.push(CheckItem {
-            what,
-            found,
-            problem,
-            fix,
-        })
-    };
+/// One check of the set-up: pure, one report line.
+type Check = fn(&FcSettings, &Expectations) -> CheckItem;
 
+/// Every check, in the order the report lists them.
+const CHECKS: [Check; 15] = [
+    check_firmware,
+    check_receiver,
+    check_override_channels,
+    check_override_mode,
+    check_arm_switch,
+    check_angle,
+    check_attitude_rate,
+    check_rc_rate,
+    check_sys_status_rate,
+    check_system_id,
+    check_mavlink_version,
+    check_override_in_build,
+    check_channel_map,
+    check_failsafe_delays,
+    check_roll_calibration,
+];
+
+/// Judges the set-up: every check in [`CHECKS`], and the route's figures when all
+/// pass. Pure.
+pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
+    let items: Vec<CheckItem> = CHECKS.iter().map(|check| check(s, want)).collect();
+    let passed = items.iter().all(|i| i.problem.is_none());
+    FcReport {
+        route: route_facts(s).filter(|_| passed),
+        items,
+    }
+}
+
+/// The figures the stream and the gate use, when this build offers the override.
+fn route_facts(s: &FcSettings) -> Option<RouteFacts> {
+    let msp_override = mode_bit(s, MODE_MSP_RC_OVERRIDE)?;
+    Some(RouteFacts {
+        roll_frame_index: usize::from(s.rcmap[0]),
+        warmup_us: warmup_us(s),
+        hold_after_stop_us: hold_after_stop_us(s),
+        attitude_period_us: mavlink_stream_period_us(s.mavlink_extra1_rate).unwrap_or(0),
+        rc_period_us: mavlink_stream_period_us(s.mavlink_rc_chan_rate).unwrap_or(0),
+        status_bits: StatusBits {
+            failsafe: mode_bit(s, MODE_FAILSAFE),
+            msp_override,
+            angle: mode_bit(s, MODE_ANGLE),
+        },
+    })
+}
+
+/// The bit of mode `id` in MSP2_INAV_STATUS: its position among the build's box ids.
+fn mode_bit(s: &FcSettings, id: u8) -> Option<u8> {
+    s.box_ids
+        .iter()
+        .position(|b| *b == id)
+        .and_then(|i| u8::try_from(i).ok())
+}
+
+/// Fresh frames iNav needs before it applies the override.
+fn warmup_us(s: &FcSettings) -> i64 {
+    RXDATA_PERIOD_US + i64::from(s.failsafe_recovery_delay_ds) * 100_000
+}
+
+/// How long iNav keeps faithd's last value after frames stop.
+fn hold_after_stop_us(s: &FcSettings) -> i64 {
+    MSP_SIGNAL_TIMEOUT_US + RXDATA_PERIOD_US + i64::from(s.failsafe_delay_ds) * 100_000
+}
+
+/// A report line.
+fn item(
+    what: &'static str,
+    found: String,
+    problem: Option<String>,
+    fix: Option<String>,
+) -> CheckItem {
+    CheckItem {
+        what,
+        found,
+        problem,
+        fix,
+    }
+}
+
+/// The usable ranges of mode `id`.
+fn ranges_of(s: &FcSettings, id: u8) -> Vec<&ModeRange> {
+    s.modes
+        .iter()
+        .filter(|m| m.usable() && m.mode_id == id)
+        .collect()
+}
+
+/// "slot N on channel C at LOW..HIGH us", for each range.
+fn describe(ms: &[&ModeRange]) -> String {
+    ms.iter()
+        .map(|m| {
+            format!(
+                "slot {} on channel {} at {}..{} us",
+                m.slot,
+                m.channel(),
+                m.low_us(),
+                m.high_us()
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The first mode slot not in use, where a fix puts a missing range.
+fn free_slot(s: &FcSettings) -> usize {
+    s.modes
+        .iter()
+        .find(|m| !m.usable())
+        .map_or(s.modes.len(), |m| m.slot)
+}
+
+fn check_firmware(s: &FcSettings, _: &Expectations) -> CheckItem {
     item(
         "firmware",
         format!(
@@ -274,8 +379,11 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         ),
         (s.variant != "INAV").then(|| "faithd's roll route is made for iNav".into()),
         None,
-    );
+    )
+}
 
+/// A receiver that is not MSP (iNav applies the override only then), and a real one.
+fn check_receiver(s: &FcSettings, _: &Expectations) -> CheckItem {
     let receiver = RECEIVER_TYPES
         .get(usize::from(s.receiver_type))
         .copied()
@@ -301,8 +409,10 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
     } else {
         format!("receiver_type = {receiver}")
     };
-    item("pilot's receiver", found, problem, fix);
+    item("pilot's receiver", found, problem, fix)
+}
 
+fn check_override_channels(s: &FcSettings, _: &Expectations) -> CheckItem {
     item(
         "override channels",
         format!("msp_override_channels = {}", s.msp_override_channels),
@@ -310,37 +420,13 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             "must be 1: roll alone (iNav's channel 1); any other bit lets faithd's frame drive another channel, and 0 lets it drive none".into()
         }),
         (s.msp_override_channels != 1).then(|| "set msp_override_channels = 1".into()),
-    );
+    )
+}
 
+/// The MSP RC OVERRIDE mode on the pilot's switch, within AUTO and nowhere else.
+fn check_override_mode(s: &FcSettings, want: &Expectations) -> CheckItem {
     let switch_aux = want.switch_channel.saturating_sub(FIRST_AUX_CHANNEL);
-    let free_slot = s
-        .modes
-        .iter()
-        .find(|m| !m.usable())
-        .map_or(s.modes.len(), |m| m.slot);
-    let auto_fix = format!(
-        "aux {free_slot} {MODE_MSP_RC_OVERRIDE} {switch_aux} {} {}",
-        want.auto_min_us, want.auto_max_us
-    );
-    let overrides: Vec<_> = s
-        .modes
-        .iter()
-        .filter(|m| m.usable() && m.mode_id == MODE_MSP_RC_OVERRIDE)
-        .collect();
-    let describe = |ms: &[&ModeRange]| {
-        ms.iter()
-            .map(|m| {
-                format!(
-                    "slot {} on channel {} at {}..{} us",
-                    m.slot,
-                    m.channel(),
-                    m.low_us(),
-                    m.high_us()
-                )
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let overrides = ranges_of(s, MODE_MSP_RC_OVERRIDE);
     let stray = overrides.iter().find(|m| {
         m.channel() != want.switch_channel
             || m.low_us() < want.auto_min_us
@@ -367,25 +453,24 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         })
     };
     // A stray range is rewritten in its own slot; a missing one takes a free slot.
-    let fix = problem.as_ref().map(|_| match stray {
-        Some(m) => format!(
-            "aux {} {MODE_MSP_RC_OVERRIDE} {switch_aux} {} {}",
-            m.slot, want.auto_min_us, want.auto_max_us
-        ),
-        None => auto_fix.clone(),
+    let slot = stray.map_or_else(|| free_slot(s), |m| m.slot);
+    let fix = problem.as_ref().map(|_| {
+        format!(
+            "aux {slot} {MODE_MSP_RC_OVERRIDE} {switch_aux} {} {}",
+            want.auto_min_us, want.auto_max_us
+        )
     });
     let found = if overrides.is_empty() {
         "MSP RC OVERRIDE not set".into()
     } else {
         format!("MSP RC OVERRIDE: {}", describe(&overrides))
     };
-    item("override mode", found, problem, fix);
+    item("override mode", found, problem, fix)
+}
 
-    let arms: Vec<_> = s
-        .modes
-        .iter()
-        .filter(|m| m.usable() && m.mode_id == MODE_ARM)
-        .collect();
+/// ARM on a switch of its own: on faithd's, MANUAL would disarm.
+fn check_arm_switch(s: &FcSettings, want: &Expectations) -> CheckItem {
+    let arms = ranges_of(s, MODE_ARM);
     let arm_on_switch = arms.iter().find(|m| m.channel() == want.switch_channel);
     item(
         "arm switch",
@@ -401,47 +486,102 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             )
         }),
         arm_on_switch.map(|m| format!("aux {} 0 <other aux channel> 1700 2100 (ARM on a switch of its own)", m.slot)),
-    );
+    )
+}
 
-    item_angle(s, want, free_slot, &mut item);
-
-    let attitude_period = mavlink_stream_period_us(s.mavlink_extra1_rate);
-    let rc_period = mavlink_stream_period_us(s.mavlink_rc_chan_rate);
-    let rate_item = |rate: u8, period: Option<i64>, stale_us: i64, key: &str, setting: &str| {
-        let found = match period {
-            Some(p) => format!("{setting} = {rate}: one every {} ms", p / 1000),
-            None => format!("{setting} = 0: not sent"),
-        };
-        // One more scheduler tick of jitter must still fit in the staleness limit.
-        let too_slow = period.is_none_or(|p| p + MAVLINK_TICK_US > stale_us);
-        let problem = too_slow.then(|| {
-            format!(
-                "faithd's {key} is {} ms: the stream must arrive at least one 20 ms tick sooner, or the gate closes between messages",
-                stale_us / 1000
-            )
-        });
-        (
-            found,
-            problem,
-            too_slow.then(|| format!("set {setting} = 50")),
-        )
+/// ANGLE whenever faithd may roll: a roll stick outside ANGLE (and HORIZON) is a
+/// rotation rate in iNav (flight/pid.c), so 1.5 s of it rolls the vehicle over.
+/// faithd rolls only in AUTO and armed: ANGLE must be on over the whole AUTO range of
+/// the switch, or over the whole range of the ARM switch.
+fn check_angle(s: &FcSettings, want: &Expectations) -> CheckItem {
+    let angles = ranges_of(s, MODE_ANGLE);
+    let covers = |outer: &ModeRange, inner: &ModeRange| {
+        outer.channel() == inner.channel()
+            && outer.low_us() <= inner.low_us()
+            && outer.high_us() >= inner.high_us()
     };
+    let covered_by_angle = |m: &&ModeRange| angles.iter().any(|a| covers(a, m));
+    let overrides = ranges_of(s, MODE_MSP_RC_OVERRIDE);
+    let arms = ranges_of(s, MODE_ARM);
+    let on_auto = !overrides.is_empty() && overrides.iter().all(covered_by_angle);
+    let on_arm = !arms.is_empty() && arms.iter().all(covered_by_angle);
+    let found = if angles.is_empty() {
+        "ANGLE not on a switch".to_string()
+    } else {
+        format!("ANGLE: {}", describe(&angles))
+    };
+    let safe = on_auto || on_arm;
+    item(
+        "ANGLE on AUTO",
+        found,
+        (!safe).then(|| {
+            format!(
+                "the switch can be in AUTO (channel {} at {}..{} us) without ANGLE: there iNav takes a roll stick as a rotation rate, and a 1.5 s roll turns the vehicle over",
+                want.switch_channel, want.auto_min_us, want.auto_max_us
+            )
+        }),
+        (!safe).then(|| {
+            format!(
+                "aux {} {MODE_ANGLE} {} {} {}",
+                free_slot(s),
+                want.switch_channel.saturating_sub(FIRST_AUX_CHANNEL),
+                want.auto_min_us,
+                want.auto_max_us
+            )
+        }),
+    )
+}
+
+/// A MAVLink stream at iNav rate setting `rate` fits within `stale_us` (faithd's
+/// `key`), with one scheduler tick of jitter to spare: found, problem, fix.
+fn rate_item(
+    rate: u8,
+    stale_us: i64,
+    key: &str,
+    setting: &str,
+) -> (String, Option<String>, Option<String>) {
+    let period = mavlink_stream_period_us(rate);
+    let found = match period {
+        Some(p) => format!("{setting} = {rate}: one every {} ms", p / 1000),
+        None => format!("{setting} = 0: not sent"),
+    };
+    // One more scheduler tick of jitter must still fit in the staleness limit.
+    let too_slow = period.is_none_or(|p| p + MAVLINK_TICK_US > stale_us);
+    let problem = too_slow.then(|| {
+        format!(
+            "faithd's {key} is {} ms: the stream must arrive at least one 20 ms tick sooner, or the gate closes between messages",
+            stale_us / 1000
+        )
+    });
+    (
+        found,
+        problem,
+        too_slow.then(|| format!("set {setting} = 50")),
+    )
+}
+
+fn check_attitude_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
     let (found, problem, fix) = rate_item(
         s.mavlink_extra1_rate,
-        attitude_period,
         want.attitude_stale_us,
         "gate.attitude_stale_us",
         "mavlink_extra1_rate",
     );
-    item("ATTITUDE rate", found, problem, fix);
+    item("ATTITUDE rate", found, problem, fix)
+}
+
+fn check_rc_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
     let (found, problem, fix) = rate_item(
         s.mavlink_rc_chan_rate,
-        rc_period,
         want.rc_stale_us,
         "gate.rc_stale_us",
         "mavlink_rc_chan_rate",
     );
-    item("RC_CHANNELS rate", found, problem, fix);
+    item("RC_CHANNELS rate", found, problem, fix)
+}
+
+/// SYS_STATUS as often as RC_CHANNELS must be fresh: it says the radio is lost.
+fn check_sys_status_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
     let status_period = mavlink_stream_period_us(s.mavlink_ext_status_rate);
     let status_slow = status_period.is_none_or(|p| p + MAVLINK_TICK_US > want.rc_stale_us);
     item(
@@ -461,8 +601,10 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             )
         }),
         status_slow.then(|| "set mavlink_ext_status_rate = 10".into()),
-    );
+    )
+}
 
+fn check_system_id(s: &FcSettings, want: &Expectations) -> CheckItem {
     let sysid_wrong = s.mavlink_sysid != want.autopilot_system_id;
     item(
         "MAVLink system id",
@@ -479,23 +621,21 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
                 want.autopilot_system_id
             )
         }),
-    );
+    )
+}
 
+fn check_mavlink_version(s: &FcSettings, _: &Expectations) -> CheckItem {
     let v1 = s.mavlink_version != 2;
     item(
         "MAVLink version",
         format!("mavlink_version = {}", s.mavlink_version),
         v1.then(|| "faithd reads RC_CHANNELS, which iNav sends only with MAVLink 2 (version 1 sends RC_CHANNELS_RAW)".into()),
         v1.then(|| "set mavlink_version = 2".into()),
-    );
+    )
+}
 
-    let position = |id: u8| {
-        s.box_ids
-            .iter()
-            .position(|b| *b == id)
-            .and_then(|i| u8::try_from(i).ok())
-    };
-    let override_bit = position(MODE_MSP_RC_OVERRIDE);
+fn check_override_in_build(s: &FcSettings, _: &Expectations) -> CheckItem {
+    let override_bit = mode_bit(s, MODE_MSP_RC_OVERRIDE);
     item(
         "override in this build",
         match override_bit {
@@ -508,8 +648,10 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         override_bit
             .is_none()
             .then(|| "flash an iNav build with USE_MSP_RC_OVERRIDE (most targets have it)".into()),
-    );
+    )
+}
 
+fn check_channel_map(s: &FcSettings, _: &Expectations) -> CheckItem {
     let roll_frame_index = usize::from(s.rcmap[0]);
     item(
         "channel map",
@@ -517,11 +659,13 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
         (roll_frame_index > 3)
             .then(|| "roll must come from one of the first four radio channels".into()),
         None,
-    );
+    )
+}
 
-    let warmup_us = RXDATA_PERIOD_US + i64::from(s.failsafe_recovery_delay_ds) * 100_000;
-    let hold_after_stop_us =
-        MSP_SIGNAL_TIMEOUT_US + RXDATA_PERIOD_US + i64::from(s.failsafe_delay_ds) * 100_000;
+/// iNav's hold of faithd's last value after a crash within faithd.toml's bound.
+fn check_failsafe_delays(s: &FcSettings, want: &Expectations) -> CheckItem {
+    let warmup_us = warmup_us(s);
+    let hold_after_stop_us = hold_after_stop_us(s);
     let hold_too_long = hold_after_stop_us > want.max_hold_after_stop_us;
     // The largest failsafe_delay (tenths of a second) within the bound.
     let delay_fits_ds =
@@ -543,43 +687,14 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             )
         }),
         hold_too_long.then(|| format!("set failsafe_delay = {}", delay_fits_ds.min(5))),
-    );
+    )
+}
 
-    match s.roll_rxrange {
-        Some((min_us, max_us)) => {
-            let found = format!("rxrange 0 {min_us} {max_us}");
-            let range = RxRange::new(min_us, max_us);
-            let aimable = range.is_some_and(|r| {
-                [NEUTRAL_US, NEUTRAL_US - 500, NEUTRAL_US + 500]
-                    .iter()
-                    .all(|v| r.aim(*v).is_some())
-            });
-            let problem = if !aimable {
-                Some(format!(
-                    "iNav scales roll from {min_us}..{max_us} to 1000..2000: faithd cannot make it use the centre and a full roll through that"
-                ))
-            } else if range != Some(want.roll_rxrange) {
-                Some(format!(
-                    "faithd aims its roll through command.roll_rxrange_us = [{}, {}]: iNav would use other values than faithd commands (1800 would arrive as {}) and the roll check would fail",
-                    want.roll_rxrange.min_us(),
-                    want.roll_rxrange.max_us(),
-                    range.map_or(0, |r| r
-                        .scale(want.roll_rxrange.aim(1800).map_or(1800, |a| a.0)))
-                ))
-            } else {
-                None
-            };
-            let fix = problem.as_ref().map(|_| {
-                if aimable {
-                    format!("in faithd.toml: [command] roll_rxrange_us = [{min_us}, {max_us}]")
-                } else {
-                    "calibrate the radio's roll again (`rxrange 0 1000 2000` is iNav's default)"
-                        .into()
-                }
-            });
-            item("roll calibration", found, problem, fix);
-        }
-        None => item(
+/// iNav's `rxrange` of roll as faithd.toml says it is, and one faithd can aim
+/// through (when it was read: no MSP command reports it).
+fn check_roll_calibration(s: &FcSettings, want: &Expectations) -> CheckItem {
+    let Some((min_us, max_us)) = s.roll_rxrange else {
+        return item(
             "roll calibration",
             format!(
                 "rxrange not read (no MSP command reports it): faithd aims its roll through command.roll_rxrange_us = [{}, {}], which `faithd check-fc` verifies",
@@ -588,93 +703,38 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
             ),
             None,
             None,
-        ),
-    }
-
-    let passed = items.iter().all(|i| i.problem.is_none());
-    FcReport {
-        route: override_bit
-            .filter(|_| passed)
-            .map(|msp_override| RouteFacts {
-                roll_frame_index,
-                warmup_us,
-                hold_after_stop_us,
-                attitude_period_us: attitude_period.unwrap_or(0),
-                rc_period_us: rc_period.unwrap_or(0),
-                status_bits: StatusBits {
-                    failsafe: position(MODE_FAILSAFE),
-                    msp_override,
-                    angle: position(MODE_ANGLE),
-                },
-            }),
-        items,
-    }
-}
-
-/// ANGLE whenever faithd may roll: a roll stick outside ANGLE (and HORIZON) is a
-/// rotation rate in iNav (flight/pid.c), so 1.5 s of it rolls the vehicle over.
-/// faithd rolls only in AUTO and armed: ANGLE must be on over the whole AUTO range of
-/// the switch, or over the whole range of the ARM switch.
-fn item_angle(
-    s: &FcSettings,
-    want: &Expectations,
-    free_slot: usize,
-    item: &mut impl FnMut(&'static str, String, Option<String>, Option<String>),
-) {
-    let usable = |id: u8| -> Vec<&ModeRange> {
-        s.modes
+        );
+    };
+    let found = format!("rxrange 0 {min_us} {max_us}");
+    let range = RxRange::new(min_us, max_us);
+    let aimable = range.is_some_and(|r| {
+        [NEUTRAL_US, NEUTRAL_US - 500, NEUTRAL_US + 500]
             .iter()
-            .filter(|m| m.usable() && m.mode_id == id)
-            .collect()
-    };
-    let angles = usable(MODE_ANGLE);
-    let covers = |outer: &ModeRange, inner: &ModeRange| {
-        outer.channel() == inner.channel()
-            && outer.low_us() <= inner.low_us()
-            && outer.high_us() >= inner.high_us()
-    };
-    let covered_by_angle = |m: &&ModeRange| angles.iter().any(|a| covers(a, m));
-    let overrides = usable(MODE_MSP_RC_OVERRIDE);
-    let arms = usable(MODE_ARM);
-    let on_auto = !overrides.is_empty() && overrides.iter().all(covered_by_angle);
-    let on_arm = !arms.is_empty() && arms.iter().all(covered_by_angle);
-    let found = if angles.is_empty() {
-        "ANGLE not on a switch".to_string()
+            .all(|v| r.aim(*v).is_some())
+    });
+    let problem = if !aimable {
+        Some(format!(
+            "iNav scales roll from {min_us}..{max_us} to 1000..2000: faithd cannot make it use the centre and a full roll through that"
+        ))
+    } else if range != Some(want.roll_rxrange) {
+        Some(format!(
+            "faithd aims its roll through command.roll_rxrange_us = [{}, {}]: iNav would use other values than faithd commands (1800 would arrive as {}) and the roll check would fail",
+            want.roll_rxrange.min_us(),
+            want.roll_rxrange.max_us(),
+            range.map_or(0, |r| r
+                .scale(want.roll_rxrange.aim(1800).map_or(1800, |a| a.0)))
+        ))
     } else {
-        format!(
-            "ANGLE: {}",
-            angles
-                .iter()
-                .map(|m| format!(
-                    "slot {} on channel {} at {}..{} us",
-                    m.slot,
-                    m.channel(),
-                    m.low_us(),
-                    m.high_us()
-                ))
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
+        None
     };
-    let safe = on_auto || on_arm;
-    item(
-        "ANGLE on AUTO",
-        found,
-        (!safe).then(|| {
-            format!(
-                "the switch can be in AUTO (channel {} at {}..{} us) without ANGLE: there iNav takes a roll stick as a rotation rate, and a 1.5 s roll turns the vehicle over",
-                want.switch_channel, want.auto_min_us, want.auto_max_us
-            )
-        }),
-        (!safe).then(|| {
-            format!(
-                "aux {free_slot} {MODE_ANGLE} {} {} {}",
-                want.switch_channel.saturating_sub(FIRST_AUX_CHANNEL),
-                want.auto_min_us,
-                want.auto_max_us
-            )
-        }),
-    );
+    let fix = problem.as_ref().map(|_| {
+        if aimable {
+            format!("in faithd.toml: [command] roll_rxrange_us = [{min_us}, {max_us}]")
+        } else {
+            "calibrate the radio's roll again (`rxrange 0 1000 2000` is iNav's default)".into()
+        }
+    });
+    item("roll calibration", found, problem, fix)
 }
 
 /// One request of the set-up check, repeated in flight by the roll stream.
@@ -794,6 +854,37 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
     })
 }
 
+/// Why `faithd check-fc` could not judge the set-up.
+#[derive(Debug, thiserror::Error)]
+pub enum CheckError {
+    #[error("{0}")]
+    Runtime(std::io::Error),
+    #[error("{endpoint} did not open within 3 s")]
+    OpenTimeout { endpoint: String },
+    #[error("{endpoint}: {source}")]
+    Open {
+        endpoint: String,
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Msp(#[from] MspError),
+    #[error(transparent)]
+    Cli(#[from] CliError),
+}
+
+/// Why `rxrange` could not be read in iNav's CLI.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    #[error("iNav's CLI: {0}")]
+    Io(#[from] std::io::Error),
+    #[error("iNav's CLI: {0}")]
+    Msp(#[from] MspError),
+    #[error("iNav did not enter its CLI after `#` (it answered {banner:?}): is the vehicle armed?")]
+    NoCli { banner: String },
+    #[error("iNav's CLI printed no `rxrange 0` line: {text:?}")]
+    NoRxRange { text: String },
+}
+
 /// `faithd check-fc`: opens `command.sink.endpoint`, reads and judges the set-up.
 /// With `read_rxrange`, a disarmed flight controller's `rxrange` is read in its CLI
 /// too, which iNav leaves only by rebooting.
@@ -801,27 +892,31 @@ pub fn check_over_msp(
     command: &CommandConfig,
     expect: &Expectations,
     read_rxrange: bool,
-) -> Result<FcReport, String> {
+) -> Result<FcReport, CheckError> {
     let endpoint = command.msp_port();
     let timeout = Duration::from_micros(command.msp_timeout_us.max(1) as u64);
     let runtime = tokio::runtime::Builder::new_current_thread()
         .enable_all()
         .build()
-        .map_err(|e| e.to_string())?;
+        .map_err(CheckError::Runtime)?;
     runtime.block_on(async {
         let transport = tokio::time::timeout(Duration::from_secs(3), endpoint.open())
             .await
-            .map_err(|_| format!("{endpoint} did not open within 3 s"))?
-            .map_err(|e| format!("{endpoint}: {e}"))?;
+            .map_err(|_| CheckError::OpenTimeout {
+                endpoint: endpoint.to_string(),
+            })?
+            .map_err(|source| CheckError::Open {
+                endpoint: endpoint.to_string(),
+                source,
+            })?;
         let mut port = MspPort::new(transport);
-        let mut settings = read(&mut port, timeout).await.map_err(|e| e.to_string())?;
+        let mut settings = read(&mut port, timeout).await?;
         if !read_rxrange {
             return Ok(evaluate(&settings, expect));
         }
         let status = port
             .request(msp_port::MSP2_INAV_STATUS, &[], timeout)
-            .await
-            .map_err(|e| e.to_string())?;
+            .await?;
         let armed = status
             .get(9..13)
             .is_some_and(|f| u32::from_le_bytes([f[0], f[1], f[2], f[3]]) & ARMING_FLAG_ARMED != 0);
@@ -842,34 +937,27 @@ pub fn check_over_msp(
 /// Reads `rxrange` of roll in iNav's CLI (fc/cli.c `cliRxRange` prints
 /// `rxrange <channel> <min> <max>` for the four flight channels), then leaves it with
 /// `exit`, which reboots the flight controller.
-async fn read_roll_rxrange(port: &mut MspPort) -> Result<(u16, u16), String> {
-    let io = |e: std::io::Error| format!("iNav's CLI: {e}");
-    let cli = |e: MspError| format!("iNav's CLI: {e}");
-    port.send_text(b"#").await.map_err(io)?;
+async fn read_roll_rxrange(port: &mut MspPort) -> Result<(u16, u16), CliError> {
+    port.send_text(b"#").await?;
     let banner = port
         .read_text(Duration::from_secs(2), |t| {
             t.contains("CLI") && t.ends_with("# ")
         })
-        .await
-        .map_err(cli)?;
+        .await?;
     if !banner.contains("CLI") {
-        return Err(format!(
-            "iNav did not enter its CLI after `#` (it answered {banner:?}): is the vehicle armed?"
-        ));
+        return Err(CliError::NoCli { banner });
     }
-    port.send_text(b"rxrange\r\n").await.map_err(io)?;
+    port.send_text(b"rxrange\r\n").await?;
     let text = port
         .read_text(Duration::from_secs(2), |t| {
             t.contains("rxrange 3 ") && t.trim_end().ends_with('#')
         })
-        .await
-        .map_err(cli)?;
+        .await?;
     let _ = port.send_text(b"exit\r\n").await;
     let _ = port
         .read_text(Duration::from_millis(500), |t| t.contains("Leaving CLI"))
         .await;
-    parse_rxrange(&text, 0)
-        .ok_or_else(|| format!("iNav's CLI printed no `rxrange 0` line: {text:?}"))
+    parse_rxrange(&text, 0).ok_or(CliError::NoRxRange { text })
 }
 
 /// The `rxrange <channel> <min> <max>` line of `channel` in iNav's CLI output.

@@ -10,13 +10,21 @@
 pub mod fc_check;
 pub mod msp;
 pub mod msp_port;
+pub mod rxrange;
 pub mod stream;
 
 use serde::{Deserialize, Serialize};
 
 use crate::link::endpoint::{Address, Endpoint};
 use faithd_core::invalid::{Invalid, check};
-use faithd_core::safety::rc::RxRange;
+use faithd_core::safety::gate::GateConfig;
+use faithd_core::safety::manoeuvre::ManoeuvreConfig;
+use faithd_core::safety::rc::{NEUTRAL_US, RcChannel};
+use msp_port::{INAV_MSP_SIGNAL_TIMEOUT_US, MSP_SLOT_US};
+use rxrange::RxRange;
+
+/// iNav's first AUX channel: its modes (MSP RC OVERRIDE among them) bind to AUX.
+pub const FIRST_AUX_CHANNEL: u8 = 5;
 
 /// Why `kind = "mavlink"` is refused, measured on iNav 9.1 SITL.
 pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel (the roll was in effect in 37-62% of samples) and 0/65535 cannot release it; use kind = \"msp\" (docs/inav.md)";
@@ -153,5 +161,106 @@ impl CommandConfig {
                 )
             },
         )
+    }
+
+    /// What the route asks of the other sections: for iNav's MSP override, the
+    /// pilot's switch on an AUX channel, a roll frame period the MSP slots carry and
+    /// iNav does not time out, and a roll that lands through `rxrange`. A new route
+    /// adds its own arm here.
+    pub fn validate_route(
+        &self,
+        gate: &GateConfig,
+        manoeuvre: &ManoeuvreConfig,
+    ) -> Result<(), Invalid> {
+        match &self.sink {
+            Sink::Msp(_) => {
+                validate_msp_switch(gate)?;
+                validate_msp_period(manoeuvre)?;
+                validate_msp_rxrange(self.roll_rxrange_us, manoeuvre)
+            }
+        }
+    }
+}
+
+/// iNav binds its MSP RC OVERRIDE mode (and every mode) to AUX channels only.
+fn validate_msp_switch(g: &GateConfig) -> Result<(), Invalid> {
+    check(
+        g.switch_channel.get() >= FIRST_AUX_CHANNEL,
+        "gate.switch_channel",
+        || {
+            format!(
+                "must be an AUX channel {FIRST_AUX_CHANNEL} to {} (iNav binds its MSP RC OVERRIDE mode to AUX channels), got {}",
+                RcChannel::MAX,
+                g.switch_channel
+            )
+        },
+    )
+}
+
+/// The roll frame every other MSP slot at most, and often enough that iNav does not
+/// drop the override between frames.
+fn validate_msp_period(m: &ManoeuvreConfig) -> Result<(), Invalid> {
+    let max_period_us = INAV_MSP_SIGNAL_TIMEOUT_US / 2;
+    check(
+        m.resend_period_us >= 2 * MSP_SLOT_US
+            && m.resend_period_us <= max_period_us
+            && m.resend_period_us % MSP_SLOT_US == 0,
+        "manoeuvre.resend_period_us",
+        || {
+            format!(
+                "must be a multiple of {} ms from {} to {} ms: iNav serves one MSP command per port every 10 ms and faithd uses at most half of that (one command per {} ms, the roll frame every other one at most), and iNav drops the override after {} ms without a frame; got {}",
+                MSP_SLOT_US / 1000,
+                2 * MSP_SLOT_US / 1000,
+                max_period_us / 1000,
+                MSP_SLOT_US / 1000,
+                INAV_MSP_SIGNAL_TIMEOUT_US / 1000,
+                m.resend_period_us
+            )
+        },
+    )
+}
+
+/// Every value faithd sends on roll (the centre, left, right) lands through iNav's
+/// `rxrange` within 1 us of what faithd means.
+fn validate_msp_rxrange(range: RxRange, m: &ManoeuvreConfig) -> Result<(), Invalid> {
+    for wanted_us in [
+        NEUTRAL_US,
+        NEUTRAL_US - m.deflection_us,
+        NEUTRAL_US + m.deflection_us,
+    ] {
+        check(
+            range.aim(wanted_us).is_some(),
+            "command.roll_rxrange_us",
+            || {
+                format!(
+                    "iNav scales roll from {range} to 1000..2000: no value faithd can send lands within 1 us of {wanted_us}"
+                )
+            },
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_roll_frame_period_fits_the_msp_budget_and_inavs_timeout() {
+        for (period_us, ok) in [
+            (20_000, false),
+            (30_000, false),
+            (40_000, true),
+            (60_000, true),
+            (100_000, true),
+            (120_000, false),
+        ] {
+            let m = ManoeuvreConfig {
+                resend_period_us: period_us,
+                ..Default::default()
+            };
+            let route = CommandConfig::default().validate_route(&GateConfig::default(), &m);
+            assert_eq!(route.is_ok(), ok, "{period_us}");
+        }
     }
 }

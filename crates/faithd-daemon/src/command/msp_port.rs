@@ -13,7 +13,15 @@ use tokio::io::{AsyncReadExt, ReadHalf, WriteHalf};
 
 use super::msp::{self, Decoder, Frame};
 use crate::link::endpoint::BoxedTransport;
-pub use faithd_core::safety::manoeuvre::MSP_SLOT_US;
+
+/// iNav's serial task runs at 100 Hz and serves one MSP command per port per run
+/// (fc/fc_tasks.c TASK_SERIAL; msp/msp_serial.c "process one command at a time"):
+/// faithd sends one command per slot of this length, half of what the port serves.
+pub const MSP_SLOT_US: i64 = 20_000;
+
+/// iNav drops the MSP override's signal when no frame came for this long (rx/msp.c,
+/// `rxSignalTimeout = DELAY_5_HZ`).
+pub const INAV_MSP_SIGNAL_TIMEOUT_US: i64 = 200_000;
 
 /// MSP_FC_VARIANT: four ASCII letters, "INAV" on iNav.
 pub const MSP_FC_VARIANT: u16 = 2;

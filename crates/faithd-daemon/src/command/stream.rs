@@ -28,12 +28,13 @@ use tokio::sync::{mpsc, oneshot, watch};
 use super::fc_check::{self, Expectations, FcSettings, RouteFacts};
 use super::msp;
 use super::msp_port::{self, MspError, MspPort};
+use super::rxrange::RxRange;
 use crate::clock::DaemonClock;
 use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
-use faithd_core::safety::commander::RollReport;
-use faithd_core::safety::gate::FcStatus;
-use faithd_core::safety::rc::{NEUTRAL_US, RxRange};
+use faithd_core::safety::commander::{RollReport, RouteStatus};
+use faithd_core::safety::gate::{AutopilotStatus, RouteWords};
+use faithd_core::safety::rc::NEUTRAL_US;
 
 /// The stream's knobs, from the config.
 #[derive(Clone, Copy, Debug)]
@@ -55,34 +56,57 @@ pub struct StreamSettings {
     pub hold_bound: Duration,
 }
 
-/// What the stream publishes for the gate and the commander.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StreamStatus {
-    pub setup_refused: bool,
-    /// The set-up changed in flight: the stream stopped until it is checked again.
-    pub setup_changed: bool,
-    /// From this daemon time on iNav applies the stream; `None` while not streaming.
-    pub ready_at_us: Option<i64>,
-    pub facts: Option<RouteFacts>,
-    pub last_report: Option<RollReport>,
-    /// iNav's own state (armed, failsafe, ANGLE, override mode).
-    pub fc: Option<FcStatus>,
-}
-
 /// Asks the stream to end with the stick centre: `repeats` frames one period apart;
 /// the answer is how many went out, or why none could.
 pub struct StopRequest {
     pub repeats: u32,
-    pub done: oneshot::Sender<Result<u32, String>>,
+    pub done: oneshot::Sender<Result<u32, ReleaseError>>,
+}
+
+/// Why the centre did not (all) reach iNav's MSP port.
+#[derive(Debug, thiserror::Error)]
+pub enum ReleaseError {
+    /// The stream was not streaming: nothing of faithd's for iNav to hold.
+    #[error("the MSP port is not open")]
+    NotOpen,
+    #[error("cannot open {endpoint}: {source}")]
+    Open {
+        endpoint: String,
+        source: std::io::Error,
+    },
+    #[error("{written} of {repeats} written, then: {source}")]
+    Write {
+        written: u32,
+        repeats: u32,
+        source: std::io::Error,
+    },
 }
 
 /// The commander's side of the stream.
 pub struct StreamHandle {
     /// The roll value iNav should use (the centre when idle).
     pub held: watch::Sender<u16>,
-    pub status: watch::Receiver<StreamStatus>,
+    /// What the gate and the commander read: the set-up judged, the stream ready
+    /// (from when iNav applies it), iNav's status (armed, failsafe, ANGLE, the
+    /// override mode) and the roll iNav reports using.
+    pub status: watch::Receiver<RouteStatus>,
+    /// The route as the last check found it, for a release written from outside.
+    pub facts: watch::Receiver<Option<RouteFacts>>,
     pub stop: mpsc::Sender<StopRequest>,
 }
+
+/// How iNav over MSP is worded in the journal when it keeps the gate closed.
+pub static INAV_MSP_WORDS: RouteWords = RouteWords {
+    setup_refused: "flight controller set-up refused (see `faithd check-fc`)",
+    setup_changed: "the flight controller's set-up changed in flight (the journal says what): faithd reads it again before it commands",
+    not_streaming: "MSP command port not streaming",
+    no_status: "no status from the flight controller over MSP yet",
+    status_stale: "flight controller status over MSP stale",
+    failsafe: "iNav's FAILSAFE mode",
+    override_inactive: "iNav reports its MSP RC OVERRIDE mode off: it would not take faithd's roll",
+    stabilised_mode_off: "iNav is not in ANGLE mode: a roll stick would command a rotation rate, not a bank (put ANGLE on the AUTO switch: `faithd check-fc`)",
+    warming_up: "iNav applies the MSP override only after its recovery delay",
+};
 
 /// Starts the stream task.
 pub fn spawn(
@@ -92,22 +116,30 @@ pub fn spawn(
     heartbeat: Heartbeat,
 ) -> StreamHandle {
     let (held, held_rx) = watch::channel(NEUTRAL_US);
-    let (status_tx, status) = watch::channel(StreamStatus::default());
+    let (status_tx, status) = watch::channel(RouteStatus::unchecked(&INAV_MSP_WORDS));
+    let (facts_tx, facts) = watch::channel(None);
     let (stop, stop_rx) = mpsc::channel(1);
     let channels = Channels {
         held: held_rx,
         status: status_tx,
+        facts: facts_tx,
         stop: stop_rx,
         heartbeat,
     };
     tokio::spawn(run(endpoint, settings, clock, channels));
-    StreamHandle { held, status, stop }
+    StreamHandle {
+        held,
+        status,
+        facts,
+        stop,
+    }
 }
 
 /// The stream task's ends of its channels, and its heartbeat.
 struct Channels {
     held: watch::Receiver<u16>,
-    status: watch::Sender<StreamStatus>,
+    status: watch::Sender<RouteStatus>,
+    facts: watch::Sender<Option<RouteFacts>>,
     stop: mpsc::Receiver<StopRequest>,
     heartbeat: Heartbeat,
 }
@@ -120,11 +152,11 @@ pub async fn release_directly(
     roll_rxrange: RxRange,
     repeats: u32,
     period: Duration,
-) -> Result<u32, String> {
-    let transport = endpoint
-        .open()
-        .await
-        .map_err(|e| format!("cannot open {endpoint}: {e}"))?;
+) -> Result<u32, ReleaseError> {
+    let transport = endpoint.open().await.map_err(|source| ReleaseError::Open {
+        endpoint: endpoint.to_string(),
+        source,
+    })?;
     let mut port = MspPort::new(transport);
     let centre = raw_rc_frame(facts.roll_frame_index, NEUTRAL_US, roll_rxrange);
     release(&mut port, &centre, repeats, period).await
@@ -150,7 +182,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             biased;
             o = endpoint.open() => o,
             Some(req) = channels.stop.recv() => {
-                let _ = req.done.send(Err("the MSP port is not open".into()));
+                let _ = req.done.send(Err(ReleaseError::NotOpen));
                 return;
             }
         };
@@ -167,23 +199,23 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
                         tracing::warn!(%endpoint, "cannot read the flight controller's set-up: {why}");
                         backoff
                     }
-                    Ok(Err(summary)) => {
-                        channels.status.send_modify(|s| s.setup_refused = true);
+                    Ok(Checked::Refused(summary)) => {
+                        channels.status.send_modify(|s| s.path.setup_refused = true);
                         tracing::error!(%endpoint, "flight controller set-up refused, faithd will not command: {summary}");
                         settings.recheck
                     }
-                    Ok(Ok((fc, facts))) => {
+                    Ok(Checked::Accepted(fc, facts)) => {
                         let why =
                             serve(&mut port, &fc, facts, &settings, &clock, &mut channels).await;
                         channels.status.send_modify(|s| {
-                            s.ready_at_us = None;
+                            s.path.ready_at_us = None;
+                            s.path.autopilot = None;
                             s.last_report = None;
-                            s.fc = None;
                         });
                         match why {
                             Ended::Stopped => return,
                             Ended::SetupChanged(what) => {
-                                channels.status.send_modify(|s| s.setup_changed = true);
+                                channels.status.send_modify(|s| s.path.setup_changed = true);
                                 tracing::error!(%endpoint, "the flight controller's set-up changed in flight ({what}): faithd stopped streaming and closes the gate until the set-up is checked again");
                                 Duration::ZERO
                             }
@@ -200,7 +232,7 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             biased;
             _ = channels.heartbeat.sleep(wait) => {}
             Some(req) = channels.stop.recv() => {
-                let _ = req.done.send(Err("the MSP port is not open".into()));
+                let _ = req.done.send(Err(ReleaseError::NotOpen));
                 return;
             }
         }
@@ -208,23 +240,26 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
     }
 }
 
-/// Reads and judges the set-up; `Ok(Err(summary))` when it is refused.
-async fn check(
-    port: &mut MspPort,
-    settings: &StreamSettings,
-) -> Result<Result<(FcSettings, RouteFacts), String>, String> {
-    let fc = fc_check::read(port, settings.reply_timeout)
-        .await
-        .map_err(|e| e.to_string())?;
+/// The set-up as judged on an open port.
+enum Checked {
+    /// Accepted: what was read, and the route it gives.
+    Accepted(FcSettings, RouteFacts),
+    /// Refused, with the check's summary for the journal.
+    Refused(String),
+}
+
+/// Reads and judges the set-up; an error when it could not be read at all.
+async fn check(port: &mut MspPort, settings: &StreamSettings) -> Result<Checked, MspError> {
+    let fc = fc_check::read(port, settings.reply_timeout).await?;
     let report = fc_check::evaluate(&fc, &settings.expect);
     Ok(match report.route {
         Some(facts) => {
             for item in &report.items {
                 tracing::info!("flight controller {}: {}", item.what, item.found);
             }
-            Ok((fc, facts))
+            Checked::Accepted(fc, facts)
         }
-        None => Err(report.summary()),
+        None => Checked::Refused(report.summary()),
     })
 }
 
@@ -309,6 +344,32 @@ impl Held {
     }
 }
 
+/// What a slot is for, once it comes.
+enum Slot {
+    /// Write this: the roll frame (`None`) with `value_us`, or a request.
+    Due { ask: Option<Ask>, value_us: u16 },
+    /// The commander changed the value while a request waited: look again.
+    Changed,
+    /// The daemon asked the stream to release and end.
+    Stop(StopRequest),
+}
+
+/// The stream on an open, checked port: the slots, the value and the rotation.
+struct Serving<'a> {
+    port: &'a mut MspPort,
+    checked: &'a FcSettings,
+    facts: RouteFacts,
+    settings: &'a StreamSettings,
+    clock: &'a DaemonClock,
+    wanted: Held,
+    rotation: Rotation,
+    sent_us: Option<u16>,
+    last_roll_frame: tokio::time::Instant,
+    refusals: u64,
+}
+
+/// Streams until the port fails, the set-up changes or the daemon asks to stop: in
+/// each slot the roll frame when due, else the next request, and its reply read.
 async fn serve(
     port: &mut MspPort,
     checked: &FcSettings,
@@ -317,69 +378,115 @@ async fn serve(
     clock: &DaemonClock,
     channels: &mut Channels,
 ) -> Ended {
-    let Channels {
-        held,
-        status,
-        stop,
-        heartbeat,
-    } = channels;
-    let frame = |roll_us| raw_rc_frame(facts.roll_frame_index, roll_us, settings.roll_rxrange);
-    // Whatever was held before the port went away, the stream starts at the centre:
-    // that is the release a restarted or reconnected faithd owes the pilot.
-    held.mark_unchanged();
-    let mut wanted = Held {
-        wanted_us: NEUTRAL_US,
-        raised_at: None,
-        reverted: false,
-    };
-    let started_us = clock.now_us();
-    let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
-    status.send_modify(|s| {
-        s.setup_refused = false;
-        s.setup_changed = false;
-        s.facts = Some(facts);
-        s.ready_at_us = Some(ready_at_us);
-    });
-    tracing::info!(
-        warmup_ms = (ready_at_us - started_us) / 1000,
-        "MSP roll stream started at the stick centre"
-    );
-    let mut rotation = Rotation { n: 0, recheck: 0 };
-    let mut sent_us: Option<u16> = None;
-    let mut last_roll_frame = tokio::time::Instant::now();
-    let mut refusals = 0u64;
+    let mut serving = Serving::begin(port, checked, facts, settings, clock, channels);
     loop {
-        heartbeat.beat();
-        if held.has_changed().unwrap_or(false) {
-            wanted.set(*held.borrow_and_update());
+        channels.heartbeat.beat();
+        let (ask, value_us) = match serving.wait_for_slot(channels).await {
+            Slot::Due { ask, value_us } => (ask, value_us),
+            Slot::Changed => continue,
+            Slot::Stop(req) => return serving.release_and_end(req).await,
+        };
+        let payload = match serving.exchange(channels, ask, value_us).await {
+            Ok(Some(payload)) => payload,
+            Ok(None) => continue,
+            Err(ended) => return ended,
+        };
+        if let Some(ended) = serving.take_reply(&channels.status, ask, &payload) {
+            return ended;
         }
-        let value_us = wanted.value_us(settings.hold_bound);
-        // Due when the value changed, or when the next slot comes a period after the
-        // last roll frame: the roll frame and the requests then take turns.
-        let roll_due =
-            sent_us != Some(value_us) || port.next_slot() >= last_roll_frame + settings.roll_period;
+    }
+}
+
+impl<'a> Serving<'a> {
+    /// Starts at the centre, whatever was held before the port went away: that is
+    /// the release a restarted or reconnected faithd owes the pilot. Publishes the
+    /// route and from when iNav applies it.
+    fn begin(
+        port: &'a mut MspPort,
+        checked: &'a FcSettings,
+        facts: RouteFacts,
+        settings: &'a StreamSettings,
+        clock: &'a DaemonClock,
+        channels: &mut Channels,
+    ) -> Self {
+        channels.held.mark_unchanged();
+        let started_us = clock.now_us();
+        let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
+        channels.facts.send_replace(Some(facts));
+        channels.status.send_modify(|s| {
+            s.path.setup_refused = false;
+            s.path.setup_changed = false;
+            s.path.ready_at_us = Some(ready_at_us);
+        });
+        tracing::info!(
+            warmup_ms = (ready_at_us - started_us) / 1000,
+            "MSP roll stream started at the stick centre"
+        );
+        Self {
+            port,
+            checked,
+            facts,
+            settings,
+            clock,
+            wanted: Held {
+                wanted_us: NEUTRAL_US,
+                raised_at: None,
+                reverted: false,
+            },
+            rotation: Rotation { n: 0, recheck: 0 },
+            sent_us: None,
+            last_roll_frame: tokio::time::Instant::now(),
+            refusals: 0,
+        }
+    }
+
+    /// The roll frame with `roll_us`, aimed through iNav's `rxrange`.
+    fn frame(&self, roll_us: u16) -> Vec<u8> {
+        raw_rc_frame(
+            self.facts.roll_frame_index,
+            roll_us,
+            self.settings.roll_rxrange,
+        )
+    }
+
+    /// Waits for the next slot. The roll frame is due when the value changed, or
+    /// when the next slot comes a period after the last roll frame: the roll frame
+    /// and the requests then take turns. A stop wins over the slot, and a new value
+    /// takes the slot from a request (the roll frame is always first in line).
+    async fn wait_for_slot(&mut self, channels: &mut Channels) -> Slot {
+        if channels.held.has_changed().unwrap_or(false) {
+            self.wanted.set(*channels.held.borrow_and_update());
+        }
+        let value_us = self.wanted.value_us(self.settings.hold_bound);
+        let roll_due = self.sent_us != Some(value_us)
+            || self.port.next_slot() >= self.last_roll_frame + self.settings.roll_period;
         let ask = if roll_due {
             None
         } else {
-            Some(rotation.next())
+            Some(self.rotation.next())
         };
-        // The slot comes first; a stop wins over it, and a new value takes the slot
-        // from a request (the roll frame is always first in line).
         tokio::select! {
             biased;
-            Some(req) = stop.recv() => {
-                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
-                let _ = req.done.send(sent);
-                return Ended::Stopped;
+            Some(req) = channels.stop.recv() => Slot::Stop(req),
+            Ok(()) = channels.held.changed(), if ask.is_some() => {
+                self.wanted.set(*channels.held.borrow_and_update());
+                Slot::Changed
             }
-            Ok(()) = held.changed(), if ask.is_some() => {
-                wanted.set(*held.borrow_and_update());
-                continue;
-            }
-            _ = tokio::time::sleep_until(port.next_slot()) => {}
+            _ = tokio::time::sleep_until(self.port.next_slot()) => Slot::Due { ask, value_us },
         }
+    }
+
+    /// Writes the slot's command and reads its reply: `Ok(None)` when iNav refused
+    /// it (counted, and said in the journal at powers of two), `Err` when the
+    /// stream ends here.
+    async fn exchange(
+        &mut self,
+        channels: &mut Channels,
+        ask: Option<Ask>,
+        value_us: u16,
+    ) -> Result<Option<Vec<u8>>, Ended> {
         let (command, bytes) = match ask {
-            None => (msp::MSP_SET_RAW_RC, frame(value_us)),
+            None => (msp::MSP_SET_RAW_RC, self.frame(value_us)),
             Some(Ask::Rc) => (msp_port::MSP_RC, msp::encode_request(msp_port::MSP_RC, &[])),
             Some(Ask::Status) => (
                 msp_port::MSP2_INAV_STATUS,
@@ -387,58 +494,65 @@ async fn serve(
             ),
             Some(Ask::Recheck(r)) => (r.command(), r.request()),
         };
-        let slot_at = match port.send(&bytes).await {
+        let slot_at = match self.port.send(&bytes).await {
             Ok(at) => at,
-            Err(e) => return Ended::Failed(format!("write failed: {e}")),
+            Err(e) => return Err(Ended::Failed(format!("write failed: {e}"))),
         };
         if ask.is_none() {
-            sent_us = Some(value_us);
-            last_roll_frame = slot_at;
+            self.sent_us = Some(value_us);
+            self.last_roll_frame = slot_at;
         }
+        let timeout = self.settings.reply_timeout;
         let reply = tokio::select! {
             biased;
-            Some(req) = stop.recv() => {
-                let sent = release(port, &frame(NEUTRAL_US), req.repeats, settings.roll_period).await;
-                let _ = req.done.send(sent);
-                return Ended::Stopped;
-            }
-            reply = port.reply(command, settings.reply_timeout) => reply,
+            Some(req) = channels.stop.recv() => return Err(self.release_and_end(req).await),
+            reply = self.port.reply(command, timeout) => reply,
         };
-        let payload = match reply {
-            Ok(payload) => payload,
+        match reply {
+            Ok(payload) => Ok(Some(payload)),
             Err(MspError::Refused { command }) => {
-                refusals += 1;
-                if refusals.is_power_of_two() {
+                self.refusals += 1;
+                if self.refusals.is_power_of_two() {
                     tracing::error!(
                         command,
-                        refusals,
+                        refusals = self.refusals,
                         "the flight controller refused an MSP command"
                     );
                 }
-                continue;
+                Ok(None)
             }
-            Err(e) => return Ended::Failed(e.to_string()),
-        };
+            Err(e) => Err(Ended::Failed(e.to_string())),
+        }
+    }
+
+    /// Hands a reply on: the roll iNav uses to the commander, iNav's status to the
+    /// gate, a set-up read again to the check (a change ends the stream).
+    fn take_reply(
+        &self,
+        status: &watch::Sender<RouteStatus>,
+        ask: Option<Ask>,
+        payload: &[u8],
+    ) -> Option<Ended> {
         match ask {
             None => {}
             Some(Ask::Rc) => {
-                if let Some(roll_us) = msp_port::rc_values(&payload).next() {
+                if let Some(roll_us) = msp_port::rc_values(payload).next() {
                     let report = RollReport {
-                        t_us: clock.now_us(),
+                        t_us: self.clock.now_us(),
                         roll_us,
                     };
                     status.send_modify(|s| s.last_report = Some(report));
                 }
             }
-            Some(Ask::Status) => match facts.status_bits.decode(&payload) {
-                Some(bits) => publish_fc_status(
+            Some(Ask::Status) => match self.facts.status_bits.decode(payload) {
+                Some(bits) => publish_autopilot_status(
                     status,
-                    FcStatus {
-                        t_us: clock.now_us(),
+                    AutopilotStatus {
+                        t_us: self.clock.now_us(),
                         armed: bits.armed,
                         failsafe: bits.failsafe,
-                        override_on: bits.override_on,
-                        angle: bits.angle,
+                        override_active: bits.override_on,
+                        stabilised: bits.angle,
                     },
                 ),
                 None => tracing::warn!(
@@ -447,28 +561,36 @@ async fn serve(
                 ),
             },
             Some(Ask::Recheck(r)) => {
-                if let Some(what) = r.changed(checked, &payload) {
-                    return Ended::SetupChanged(what);
-                }
+                return r.changed(self.checked, payload).map(Ended::SetupChanged);
             }
         }
+        None
+    }
+
+    /// Writes the centre as the daemon asked and answers how many went out.
+    async fn release_and_end(&mut self, req: StopRequest) -> Ended {
+        let centre = self.frame(NEUTRAL_US);
+        let sent = release(self.port, &centre, req.repeats, self.settings.roll_period).await;
+        let _ = req.done.send(sent);
+        Ended::Stopped
     }
 }
 
-/// Hands iNav's latest status to the gate, saying in the journal when it changed.
-fn publish_fc_status(status: &watch::Sender<StreamStatus>, fc: FcStatus) {
-    let flags = |f: &FcStatus| (f.armed, f.failsafe, f.override_on, f.angle);
+/// Hands iNav's latest status to the gate, saying in the journal when it changed
+/// (in iNav's terms: the override mode, ANGLE).
+fn publish_autopilot_status(status: &watch::Sender<RouteStatus>, fc: AutopilotStatus) {
+    let flags = |f: &AutopilotStatus| (f.armed, f.failsafe, f.override_active, f.stabilised);
     status.send_modify(|s| {
-        if s.fc.as_ref().map(flags) != Some(flags(&fc)) {
+        if s.path.autopilot.as_ref().map(flags) != Some(flags(&fc)) {
             tracing::info!(
                 armed = fc.armed,
                 failsafe = fc.failsafe,
-                override_on = fc.override_on,
-                angle = fc.angle,
+                override_on = fc.override_active,
+                angle = fc.stabilised,
                 "flight controller status"
             );
         }
-        s.fc = Some(fc);
+        s.path.autopilot = Some(fc);
     });
 }
 
@@ -479,7 +601,7 @@ async fn release(
     centre: &[u8],
     repeats: u32,
     period: Duration,
-) -> Result<u32, String> {
+) -> Result<u32, ReleaseError> {
     for n in 0..repeats.max(1) {
         if n > 0 {
             tokio::time::sleep(
@@ -489,7 +611,11 @@ async fn release(
         }
         port.send(centre)
             .await
-            .map_err(|e| format!("{n} of {repeats} written, then: {e}"))?;
+            .map_err(|source| ReleaseError::Write {
+                written: n,
+                repeats,
+                source,
+            })?;
         let _ = port.reply(msp::MSP_SET_RAW_RC, period).await;
     }
     Ok(repeats.max(1))

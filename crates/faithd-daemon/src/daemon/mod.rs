@@ -22,9 +22,8 @@ use std::time::Duration;
 
 use tokio::sync::{mpsc, watch};
 
+use crate::actuator::{self, RouteStatus};
 use crate::clock::DaemonClock;
-use crate::command::fc_check::Expectations;
-use crate::command::stream::{self, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
 use crate::link::endpoint::Endpoint;
 use crate::link::ground::{self, GroundFeed, Notice};
@@ -39,7 +38,7 @@ use faithd_core::pipeline::PipelineTelemetry;
 use faithd_core::safety::commander::{
     Commander, CommanderConfig, Event as CommanderEvent, Inputs, RollCall, RollReport,
 };
-use faithd_core::safety::gate::{CommandPathStatus, GateState, PipelineStatus};
+use faithd_core::safety::gate::{GateState, PipelineStatus};
 use faithd_core::safety::manoeuvre::RollRequest;
 use faithd_core::safety::vehicle::VehicleState;
 
@@ -246,9 +245,9 @@ pub async fn serve(
         &stop,
         &faults,
     );
-    let stream = stream::spawn(
+    let actuator = actuator::start(
+        &config,
         msp_endpoint.clone(),
-        stream_settings(&config),
         clock,
         supervisor.register("MSP roll stream"),
     );
@@ -266,11 +265,7 @@ pub async fn serve(
             faults.clone(),
         ),
     );
-    let StreamHandle {
-        held,
-        status: stream_rx,
-        stop: stream_stop,
-    } = stream;
+    let (held, stream_rx) = (actuator.held(), actuator.status());
     // The commander is a task of its own: a panic in it ends that task alone, and
     // the wait below then releases the roll like any other fault.
     let commander_stop = stop.handle();
@@ -294,7 +289,7 @@ pub async fn serve(
     let ended = wait_for_the_end(&mut commander, shutdown, &faults).await;
     // Whatever state the manoeuvre was in, the pilot gets the roll channel back: the
     // centre, `release_repeats` times, each frame flushed, before faithd exits.
-    release_on_exit(&stream_stop, &stream_rx, &msp_endpoint, &config).await;
+    actuator.release_on_exit().await;
     stop.request();
     tasks.push("commander", commander);
     if let Some(r) = &recorder {
@@ -581,92 +576,12 @@ impl Workers {
     }
 }
 
-fn stream_settings(config: &FaithdConfig) -> StreamSettings {
-    let us = |v: i64| Duration::from_micros(v.max(1) as u64);
-    StreamSettings {
-        roll_period: us(config.manoeuvre.resend_period_us),
-        reply_timeout: us(config.command.msp_timeout_us),
-        warmup_margin_us: config.command.warmup_margin_us,
-        reconnect_min: us(config.mavlink.reconnect_min_us),
-        reconnect_max: us(config.mavlink.reconnect_max_us),
-        recheck: Duration::from_secs(5),
-        expect: Expectations::new(
-            &config.gate,
-            &config.command,
-            config.mavlink.autopilot_system_id,
-        ),
-        roll_rxrange: config.command.roll_rxrange_us,
-        hold_bound: us(config.pipeline.decision.roll_duration_us + HOLD_MARGIN_US),
-    }
-}
-
-/// How much longer than a roll lasts the stream holds it before it reverts to the
-/// centre on its own: the commander releases within a few milliseconds of the end.
-const HOLD_MARGIN_US: i64 = 250_000;
-
-/// Ends the stream with the centre and says in the journal what reached the wire.
-/// When the stream task is gone (it panicked) or does not answer, the port is opened
-/// afresh and the centre written from here.
-async fn release_on_exit(
-    stop: &tokio::sync::mpsc::Sender<StopRequest>,
-    status: &watch::Receiver<stream::StreamStatus>,
-    endpoint: &Endpoint,
-    config: &FaithdConfig,
-) {
-    let repeats = config.manoeuvre.release_repeats;
-    let (facts, streaming) = {
-        let s = status.borrow();
-        (s.facts, s.ready_at_us.is_some())
-    };
-    let (done, answer) = tokio::sync::oneshot::channel();
-    let asked = stop.try_send(StopRequest { repeats, done }).is_ok();
-    let why = if asked {
-        match tokio::time::timeout(Duration::from_secs(1), answer).await {
-            Ok(Ok(Ok(n))) => {
-                tracing::info!("roll channel released: {n} centre frames written to iNav");
-                return;
-            }
-            // The stream is alive and not streaming (the port is down, or the set-up
-            // was refused or changed): iNav has no frame of faithd's to hold, and a
-            // frame written now could land on a set-up faithd refused.
-            Ok(Ok(Err(why))) => {
-                tracing::info!("roll channel: nothing to release ({why})");
-                return;
-            }
-            Ok(Err(_)) => "the MSP stream task has ended".to_string(),
-            Err(_) => "the MSP stream did not answer within 1 s".into(),
-        }
-    } else {
-        "the MSP stream task has ended".into()
-    };
-    let Some(facts) = facts.filter(|_| streaming) else {
-        tracing::info!("roll channel: nothing to release ({why}; faithd was not streaming)");
-        return;
-    };
-    tracing::error!("roll channel release through the stream failed ({why}): writing it directly");
-    let period = Duration::from_micros(config.manoeuvre.resend_period_us as u64);
-    match stream::release_directly(
-        endpoint,
-        facts,
-        config.command.roll_rxrange_us,
-        repeats,
-        period,
-    )
-    .await
-    {
-        Ok(n) => tracing::info!("roll channel released: {n} centre frames written to iNav"),
-        Err(e) => tracing::error!(
-            "roll channel release not written ({e}): iNav keeps faithd's last value until its MSP override times out"
-        ),
-    }
-}
-
 /// What the commander listens to, and its heartbeat.
 struct CommanderInputs {
     vehicle_rx: watch::Receiver<VehicleState>,
     status_rx: watch::Receiver<PipelineStatus>,
     decision_rx: watch::Receiver<Option<cycle::RollDecision>>,
-    stream_rx: watch::Receiver<stream::StreamStatus>,
+    stream_rx: watch::Receiver<RouteStatus>,
     observer: Option<Observer>,
     heartbeat: supervise::Heartbeat,
     /// Gate changes and rolls, for the ground station (a no-op without one).
@@ -678,7 +593,7 @@ fn commander_config(config: &FaithdConfig) -> CommanderConfig {
     CommanderConfig {
         gate: config.gate,
         manoeuvre: config.manoeuvre,
-        roll_rxrange: config.command.roll_rxrange_us,
+        reported_roll: actuator::reported_roll(config),
         confirm_within_us: config.command.confirm_within_us,
         decision_fresh_us: 2 * config.daemon.period_us.max(1),
     }
@@ -741,13 +656,7 @@ async fn commander_task(
         let streamed = *stream_rx.borrow_and_update();
         let report = streamed.last_report.filter(|r| Some(*r) != last_report);
         last_report = streamed.last_report.or(last_report);
-        let path = CommandPathStatus {
-            setup_refused: streamed.setup_refused,
-            setup_changed: streamed.setup_changed,
-            ready_at_us: streamed.ready_at_us,
-            roll_not_in_effect: false,
-            fc: streamed.fc,
-        };
+        let path = streamed.path;
         let step = commander.step(
             now_us,
             Inputs {

@@ -288,9 +288,11 @@ fn short_reason(blocker: &Blocker) -> String {
         Blocker::Disarmed => "disarmed".into(),
         Blocker::AutopilotFailsafe {
             source: FailsafeSource::Heartbeat,
+            ..
         } => "autopilot failsafe".into(),
         Blocker::AutopilotFailsafe {
-            source: FailsafeSource::FcStatus,
+            source: FailsafeSource::AutopilotStatus,
+            ..
         } => "iNav FAILSAFE mode".into(),
         Blocker::NoAttitude => "no ATTITUDE yet".into(),
         Blocker::AttitudeStale { age_us } => format!("ATTITUDE stale {} ms", age_us / 1000),
@@ -302,13 +304,15 @@ fn short_reason(blocker: &Blocker) -> String {
         Blocker::PipelineUnhealthy {
             problem: PipelineProblem::NoAttitude,
         } => "no attitude for the flow".into(),
-        Blocker::FcSetupRefused => "FC set-up refused".into(),
-        Blocker::FcSetupChanged => "FC set-up changed in flight".into(),
-        Blocker::CommandPortDown => "MSP port down".into(),
-        Blocker::NoFcStatus => "no FC status yet".into(),
-        Blocker::FcStatusStale { age_us } => format!("FC status stale {} ms", age_us / 1000),
-        Blocker::OverrideModeOff => "MSP RC OVERRIDE mode off".into(),
-        Blocker::AngleModeOff => "iNav not in ANGLE".into(),
+        Blocker::SetupRefused { .. } => "FC set-up refused".into(),
+        Blocker::SetupChanged { .. } => "FC set-up changed in flight".into(),
+        Blocker::CommandPortDown { .. } => "MSP port down".into(),
+        Blocker::NoAutopilotStatus { .. } => "no FC status yet".into(),
+        Blocker::AutopilotStatusStale { age_us, .. } => {
+            format!("FC status stale {} ms", age_us / 1000)
+        }
+        Blocker::OverrideInactive { .. } => "MSP RC OVERRIDE mode off".into(),
+        Blocker::StabilisedModeOff { .. } => "iNav not in ANGLE".into(),
         Blocker::OverrideWarmingUp { .. } => "MSP stream warming up".into(),
         Blocker::RollNotInEffect => "roll not in effect on FC".into(),
     }
@@ -711,9 +715,11 @@ mod tests {
             Blocker::Disarmed,
             Blocker::AutopilotFailsafe {
                 source: FailsafeSource::Heartbeat,
+                says: "",
             },
             Blocker::AutopilotFailsafe {
-                source: FailsafeSource::FcStatus,
+                source: FailsafeSource::AutopilotStatus,
+                says: "",
             },
             Blocker::NoAttitude,
             Blocker::AttitudeStale { age_us },
@@ -725,13 +731,14 @@ mod tests {
             Blocker::PipelineUnhealthy {
                 problem: PipelineProblem::NoAttitude,
             },
-            Blocker::FcSetupRefused,
-            Blocker::CommandPortDown,
-            Blocker::NoFcStatus,
-            Blocker::FcStatusStale { age_us },
-            Blocker::OverrideModeOff,
+            Blocker::SetupRefused { says: "" },
+            Blocker::CommandPortDown { says: "" },
+            Blocker::NoAutopilotStatus { says: "" },
+            Blocker::AutopilotStatusStale { age_us, says: "" },
+            Blocker::OverrideInactive { says: "" },
             Blocker::OverrideWarmingUp {
                 remaining_us: 300_000,
+                says: "",
             },
             Blocker::RollNotInEffect,
         ]
