@@ -7,6 +7,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::dense_grid::DenseGrid;
+use super::geometry::dist2;
 use super::sorted_grid::SortedGrid;
 
 use crate::invalid::{Invalid, check, positive};
@@ -87,14 +88,6 @@ impl Dbscan {
             None => self.sparse.run(points, eps, min_points, labels),
         }
     }
-}
-
-/// Squared distance, in this order of operations everywhere: the grids must decide
-/// "within eps" exactly as the reference does.
-#[inline]
-pub(super) fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
-    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-    dx * dx + dy * dy + dz * dz
 }
 
 /// The textbook O(n^2) algorithm with the same visiting order: the reference that the

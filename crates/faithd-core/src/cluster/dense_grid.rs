@@ -40,7 +40,7 @@
 
 use std::ops::Range;
 
-use super::dbscan::dist2;
+use super::geometry::dist2;
 
 /// No cell, point or cluster.
 const NONE: u32 = u32::MAX;

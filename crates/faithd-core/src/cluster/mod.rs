@@ -8,6 +8,7 @@ mod dbscan;
 mod dense_grid;
 mod expansion;
 mod features;
+mod geometry;
 mod sorted_grid;
 mod stats;
 

@@ -10,7 +10,7 @@
 //! expansion with a stack, the core test counting only up to min_points, and an
 //! expansion that only looks at cells still holding unlabelled points.
 
-use super::dbscan::dist2;
+use super::geometry::dist2;
 
 type CellKey = (i32, i32, i32);
 

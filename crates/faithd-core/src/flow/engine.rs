@@ -3,8 +3,9 @@
 //! One `Engine` is a surface of active events with the scratch space and counters that
 //! go with it: what one thread needs to run the flow over a tile of the sensor.
 
-use super::normal_flow::{FlowConfig, FlowStats, MAX_POINTS, MAX_RADIUS_PX};
+use super::config::{FlowConfig, MAX_POINTS, MAX_RADIUS_PX};
 use super::plane_fit::Plane;
+use super::stats::FlowStats;
 use super::surface::{ActiveEventSurface, NEVER_US};
 use super::vector::FlowVector;
 use crate::event::Event;

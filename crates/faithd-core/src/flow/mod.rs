@@ -6,14 +6,18 @@
 //! grid leaves a gradient of `1/s` along its normal, so the normal flow is
 //! `(a, b) / (a^2 + b^2)`.
 
+mod config;
 mod engine;
 mod normal_flow;
 mod plane_fit;
+mod stats;
 mod surface;
 mod tiles;
 mod vector;
 
-pub use normal_flow::{FlowConfig, FlowStats, MAX_RADIUS_PX, NormalFlow};
+pub use config::{FlowConfig, MAX_RADIUS_PX};
+pub use normal_flow::NormalFlow;
 pub use plane_fit::{PlaneFit, fit_plane};
+pub use stats::FlowStats;
 pub use surface::ActiveEventSurface;
 pub use vector::FlowVector;

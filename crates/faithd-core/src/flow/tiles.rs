@@ -18,8 +18,9 @@
 
 use std::ops::Range;
 
+use super::config::{FlowConfig, MAX_RADIUS_PX};
 use super::engine::Engine;
-use super::normal_flow::{FlowConfig, FlowStats, MAX_RADIUS_PX};
+use super::stats::FlowStats;
 use super::vector::FlowVector;
 use crate::event::Event;
 

@@ -260,6 +260,123 @@ fn add_line(
     true
 }
 
+/// The square grid on which `Faith::plateau_centroid` counts violated half-planes:
+/// `side` cells a row and a column, `cell_px` apart, the first at `(x0_px, y0_px)`.
+///
+/// Its counts are row-major difference arrays: each row holds `side` cells, a sentinel
+/// slot that collects updates past the last cell, and a whole-row counter.
+#[derive(Clone, Copy)]
+struct PlateauGrid {
+    x0_px: f64,
+    y0_px: f64,
+    cell_px: f64,
+    side: usize,
+}
+
+impl PlateauGrid {
+    /// Slots per row: the cells, the sentinel and the whole-row counter.
+    fn stride(&self) -> usize {
+        self.side + 2
+    }
+
+    /// Slot of the counter added to every cell of its row.
+    fn whole_row(&self) -> usize {
+        self.side + 1
+    }
+
+    /// Centroid of the cells whose count is at most `most`; `None` when there are none.
+    fn centroid_within(&self, cells: &[i32], most: i32) -> Option<(f64, f64)> {
+        let (mut sx, mut sy, mut n) = (0usize, 0usize, 0usize);
+        for (j, row) in cells.chunks_exact(self.stride()).enumerate() {
+            for (i, &count) in row[..self.side].iter().enumerate() {
+                if count <= most {
+                    sx += i;
+                    sy += j;
+                    n += 1;
+                }
+            }
+        }
+        (n > 0).then(|| {
+            (
+                self.x0_px + self.cell_px * sx as f64 / n as f64,
+                self.y0_px + self.cell_px * sy as f64 / n as f64,
+            )
+        })
+    }
+}
+
+// The two `add_*_lines` go line by line, each over all rows: consecutive updates then go
+// to different rows, where row by row many lines clamp to the same slot and their
+// increments would wait on one another. A line's column is monotonic in the row, so
+// when its first and last rows agree on "no cell violated" or "every cell violated", so
+// do all rows between: such a line adds the same to every cell, which moves neither the
+// plateau nor its centroid, and is left out.
+//
+// Lines beyond `FixedLine`'s range are placed in floating point, where the clamp keeps
+// the truncating cast a floor (a libm floor call would cost more than the rest).
+
+/// Adds the boundaries violated right of their crossing: from floor(x) + 1 on, clamped
+/// to the row's slots.
+fn add_rightward_lines(cells: &mut [i32], side: usize, lines: &[(f64, f64)]) {
+    let stride = side + 2;
+    let side_i64 = side as i64;
+    let top = side as f64 + 1.0;
+    for &(x, step) in lines {
+        if let Some(line) = FixedLine::new(x, step) {
+            let column = |j: i64| ((line.at(j) >> 32) + 1).clamp(0, side_i64) as usize;
+            add_line(cells, stride, side, 1, column);
+        } else {
+            let column = |j: i64| {
+                let v = (x + j as f64 * step).clamp(-1.0, top) + 1.0;
+                (v as usize).min(side)
+            };
+            add_line(cells, stride, side, 1, column);
+        }
+    }
+}
+
+/// Adds the boundaries violated left of their crossing: the whole row minus the cells
+/// from ceil(x) on, clamped to the row's slots. Returns how many whole rows that adds
+/// to every row, for the caller to add once.
+fn add_leftward_lines(cells: &mut [i32], side: usize, lines: &[(f64, f64)]) -> i32 {
+    let stride = side + 2;
+    let side_i64 = side as i64;
+    let top = side as f64 + 1.0;
+    let mut whole = 0;
+    for &(x, step) in lines {
+        // ceil(v) = -floor(-v), and = K - floor(K - v) for K = side + 1 >= v >= 0.
+        let added = if let Some(line) = FixedLine::new(x, step) {
+            let column = |j: i64| (-((-line.at(j)) >> 32)).clamp(0, side_i64) as usize;
+            add_line(cells, stride, side, -1, column)
+        } else {
+            let column = |j: i64| {
+                let v = (x + j as f64 * step).clamp(0.0, top);
+                (side + 1 - ((top - v) as usize)).min(side)
+            };
+            add_line(cells, stride, side, -1, column)
+        };
+        whole += i32::from(added);
+    }
+    whole
+}
+
+/// Turns each row's difference array into counts, starting from its whole-row
+/// counter, and returns the least count.
+fn integrate_rows(cells: &mut [i32], side: usize) -> i32 {
+    let stride = side + 2;
+    let whole_row = side + 1;
+    let mut least = i32::MAX;
+    for row in cells.chunks_exact_mut(stride) {
+        let mut acc = row[whole_row];
+        for cell in &mut row[..side] {
+            acc += *cell;
+            *cell = acc;
+            least = least.min(acc);
+        }
+    }
+    least
+}
+
 /// Boundaries sampled for the coarse plateau pass: enough to place the plateau.
 const COARSE_LINES: usize = 256;
 
@@ -594,26 +711,33 @@ impl Faith {
         if !(2..=512).contains(&side) {
             return None;
         }
-        let (x0, y0) = (cx - radius_px, cy - radius_px);
-        // Row-major difference arrays: `side` cells, a sentinel slot that collects
-        // updates past the last cell, and a whole-row counter.
-        let stride = side + 2;
-        let whole_row = side + 1;
+        let grid = PlateauGrid {
+            x0_px: cx - radius_px,
+            y0_px: cy - radius_px,
+            cell_px,
+            side,
+        };
         self.grid.clear();
-        self.grid.resize(side * stride, 0);
-        let reach = radius_px * std::f64::consts::SQRT_2 + cell_px;
-        let tol = self.config.inlier_tolerance_px;
-        // Crossing column (in cells from the grid's first column) at row 0 and its
-        // change per row, for boundaries violated to the right and to the left of the
-        // crossing.
-        self.rightward.clear();
-        self.leftward.clear();
-        let per_cell = 1.0 / cell_px;
-        // Each boundary's distance from the grid's centre first, in single precision
-        // and a loop that vectorises: most boundaries miss the grid. A boundary that
-        // misses it is constant over it, so rounding at `reach` (which clears the grid
-        // by a cell) moves nothing.
+        self.grid.resize(side * grid.stride(), 0);
+        self.measure_line_distances(cx, cy);
+        let reach_px = radius_px * std::f64::consts::SQRT_2 + cell_px;
+        self.collect_crossing_lines(&grid, reach_px, line_stride);
+        let cells = &mut self.grid[..side * grid.stride()];
+        add_rightward_lines(cells, side, &self.rightward);
+        let whole = add_leftward_lines(cells, side, &self.leftward);
+        for row in cells.chunks_exact_mut(grid.stride()) {
+            row[grid.whole_row()] += whole;
+        }
+        let least = integrate_rows(cells, side);
+        grid.centroid_within(cells, least + slack)
+    }
+
+    /// Each boundary's distance from `(cx, cy)` into `line_distance`, in single
+    /// precision and a loop that vectorises: most boundaries miss the plateau grid, and
+    /// this is the cheap test that skips them.
+    fn measure_line_distances(&mut self, cx: f64, cy: f64) {
         let n = self.nx.len();
+        let tol = self.config.inlier_tolerance_px;
         let (cx32, cy32, tol32) = (cx as f32, cy as f32, tol as f32);
         let (nx32, ny32, c32) = (&self.nx[..n], &self.ny[..n], &self.c[..n]);
         self.line_distance.clear();
@@ -622,15 +746,35 @@ impl Faith {
         for i in 0..n {
             distance[i] = (nx32[i] * cx32 + ny32[i] * cy32 - (c32[i] + tol32)).abs();
         }
-        let reach32 = reach as f32;
-        for k in (0..n).step_by(line_stride.max(1)) {
+    }
+
+    /// Sorts every `line_stride`-th boundary within `reach_px` of the grid's centre by
+    /// the side its half-plane is violated on, as (crossing column at row 0, change per
+    /// row) in cells, into `rightward` and `leftward`. A horizontal boundary leaves each
+    /// row wholly in or out, so it is counted at once in the rows' whole-row slots.
+    ///
+    /// A boundary farther than `reach_px` is constant over the grid (the reach clears it
+    /// by a cell), so the single-precision distance cannot wrongly drop one that matters.
+    fn collect_crossing_lines(&mut self, grid: &PlateauGrid, reach_px: f64, line_stride: usize) {
+        let PlateauGrid {
+            x0_px: x0,
+            y0_px: y0,
+            cell_px,
+            side,
+        } = *grid;
+        let (stride, whole_row) = (grid.stride(), grid.whole_row());
+        let tol = self.config.inlier_tolerance_px;
+        let per_cell = 1.0 / cell_px;
+        self.rightward.clear();
+        self.leftward.clear();
+        let reach32 = reach_px as f32;
+        for k in (0..self.nx.len()).step_by(line_stride.max(1)) {
             if self.line_distance[k] > reach32 {
                 continue;
             }
             let HalfPlane { nx, ny, c } = self.half_plane(k);
             let c = c + tol;
             if nx.abs() < 1e-9 {
-                // Horizontal boundary: each row is wholly in or out.
                 for j in 0..side {
                     if ny * (y0 + j as f64 * cell_px) > c {
                         self.grid[j * stride + whole_row] += 1;
@@ -648,76 +792,6 @@ impl Faith {
                 self.leftward.push((x_cross, step));
             }
         }
-        // Line by line, each over all rows: consecutive updates then go to different
-        // rows, where row by row many lines clamp to the same slot and their
-        // increments would wait on one another. A line's column is monotonic in the
-        // row, so when its first and last rows agree on "no cell violated" or "every
-        // cell violated", so do all rows between: such a line adds the same to every
-        // cell, which moves neither the plateau nor its centroid, and is left out.
-        //
-        // Violated right of the crossing: from floor(x) + 1 on; left of it, the whole
-        // row minus the cells from ceil(x) on. Each clamped to the row's slots.
-        let grid = &mut self.grid[..side * stride];
-        let side_i64 = side as i64;
-        // In floating point, for the lines beyond fixed point: the clamp keeps the
-        // truncating cast a floor (a libm floor call would cost more than the rest).
-        let top = side as f64 + 1.0;
-        for &(x, step) in &self.rightward {
-            if let Some(line) = FixedLine::new(x, step) {
-                let column = |j: i64| ((line.at(j) >> 32) + 1).clamp(0, side_i64) as usize;
-                add_line(grid, stride, side, 1, column);
-            } else {
-                let column = |j: i64| {
-                    let v = (x + j as f64 * step).clamp(-1.0, top) + 1.0;
-                    (v as usize).min(side)
-                };
-                add_line(grid, stride, side, 1, column);
-            }
-        }
-        let mut whole = 0;
-        for &(x, step) in &self.leftward {
-            // ceil(v) = -floor(-v), and = K - floor(K - v) for K = side + 1 >= v >= 0.
-            let added = if let Some(line) = FixedLine::new(x, step) {
-                let column = |j: i64| (-((-line.at(j)) >> 32)).clamp(0, side_i64) as usize;
-                add_line(grid, stride, side, -1, column)
-            } else {
-                let column = |j: i64| {
-                    let v = (x + j as f64 * step).clamp(0.0, top);
-                    (side + 1 - ((top - v) as usize)).min(side)
-                };
-                add_line(grid, stride, side, -1, column)
-            };
-            whole += i32::from(added);
-        }
-        for j in 0..side {
-            self.grid[j * stride + whole_row] += whole;
-        }
-        let mut least = i32::MAX;
-        for j in 0..side {
-            let row = &mut self.grid[j * stride..(j + 1) * stride];
-            let mut acc = row[whole_row];
-            for cell in &mut row[..side] {
-                acc += *cell;
-                *cell = acc;
-                least = least.min(acc);
-            }
-        }
-        let (mut sx, mut sy, mut n) = (0usize, 0usize, 0usize);
-        for j in 0..side {
-            for i in 0..side {
-                if self.grid[j * stride + i] <= least + slack {
-                    sx += i;
-                    sy += j;
-                    n += 1;
-                }
-            }
-        }
-        (n > 0).then(|| {
-            (
-                x0 + cell_px * sx as f64 / n as f64,
-                y0 + cell_px * sy as f64 / n as f64,
-            )
-        })
     }
 
     /// Largest pixel coordinates of the sensor.
