@@ -69,6 +69,10 @@ pub enum ReleaseError {
     /// The stream was not streaming: nothing of faithd's for iNav to hold.
     #[error("the MSP port is not open")]
     NotOpen,
+    /// Asked while it read the set-up, before its first frame: nothing of faithd's
+    /// for iNav to hold.
+    #[error("the stream had not started: it was reading the flight controller's set-up")]
+    NotStarted,
     #[error("cannot open {endpoint}: {source}")]
     Open {
         endpoint: String,
@@ -194,7 +198,17 @@ async fn run(endpoint: Endpoint, settings: StreamSettings, clock: DaemonClock, c
             Ok(transport) => {
                 backoff = settings.reconnect_min;
                 let mut port = MspPort::new(transport);
-                match check(&mut port, &settings).await {
+                // The set-up takes a few hundred milliseconds to read: a stop meanwhile
+                // finds no frame of faithd's on iNav and ends the task at once.
+                let checked = tokio::select! {
+                    biased;
+                    Some(req) = channels.stop.recv() => {
+                        let _ = req.done.send(Err(ReleaseError::NotStarted));
+                        return;
+                    }
+                    checked = check(&mut port, &settings) => checked,
+                };
+                match checked {
                     Err(why) => {
                         tracing::warn!(%endpoint, "cannot read the flight controller's set-up: {why}");
                         backoff
@@ -719,6 +733,45 @@ mod on_the_board {
             roll_rxrange: RxRange::DEFAULT,
             hold_bound: Duration::from_millis(1750),
         }
+    }
+
+    /// A stop while the set-up is still being read (a few hundred milliseconds after
+    /// every open) is answered at once: no frame of faithd's reached iNav, so there is
+    /// nothing to release, and the task ends without finishing the read.
+    #[tokio::test(start_paused = true)]
+    async fn a_stop_while_the_set_up_is_read_is_answered_at_once_with_nothing_written() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        tokio::time::sleep(Duration::from_millis(30)).await;
+        assert!(
+            !seen.lock().unwrap().port.arrived.is_empty(),
+            "the set-up read has begun"
+        );
+        let asked_us = clock.now_us();
+        let (done, answer) = oneshot::channel();
+        stream
+            .stop
+            .send(StopRequest { repeats: 3, done })
+            .await
+            .unwrap();
+        let answer = answer.await.expect("the stream answers");
+        assert!(
+            matches!(answer, Err(ReleaseError::NotStarted)),
+            "{answer:?}"
+        );
+        assert!(clock.now_us() - asked_us < 5_000, "answered after the read");
+        assert!(stream.status.borrow().path.ready_at_us.is_none());
+        assert!(stream.stop.is_closed(), "the stream task has ended");
+        let seen = seen.lock().unwrap();
+        assert!(
+            seen.port
+                .arrived
+                .iter()
+                .all(|(_, command)| *command != msp::MSP_SET_RAW_RC),
+            "no roll frame reached iNav"
+        );
     }
 
     #[tokio::test(start_paused = true)]
