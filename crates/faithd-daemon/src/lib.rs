@@ -1,8 +1,10 @@
 //! faithd's flight daemon: the adapters around the pure core (`faithd-core`) that
-//! connect it to a drone. No simulation code lives here (the lab, `faithd-lab`,
-//! drives this crate through the seams that fly). Events come from the camera, attitude and the pilot's switch from
-//! iNav over MAVLink; decisions go back to iNav as timed roll overrides, only while
-//! the safety gate is open. Modules from the outside in (docs/design.md):
+//! connect it to a drone. The one simulated part is the bench camera `source::sim`
+//! (generated events, which `faithd run` takes only with `--simulated-camera`); the
+//! lab, `faithd-lab`, drives this crate through the seams that fly. Events come from
+//! the camera, attitude and the pilot's switch from iNav over MAVLink; decisions go
+//! back to iNav as timed roll overrides, only while the safety gate is open. Modules
+//! from the outside in (docs/design.md):
 
 pub mod clock; // the daemon's one monotonic clock, in microseconds
 pub mod config; // faithd.toml: typed settings, checked before anything opens
