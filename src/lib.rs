@@ -6,7 +6,7 @@
 pub use faithd_daemon::*;
 
 #[cfg(feature = "sim")]
-pub use faithd_lab::{closed_loop, inav_sitl, realflight, video};
+pub use faithd_lab::{closed_loop, inav_sitl, orchestrate, realflight, video};
 
 /// The pipeline's driver (`faithd-daemon`), and with the lab its charged compute and
 /// the `bench pipeline` runner.

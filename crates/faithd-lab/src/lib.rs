@@ -7,5 +7,6 @@
 pub mod closed_loop; // the daemon flying a simulated quadrotor against a simulated iNav
 pub mod cycle; // the pipeline in simulated time, its compute charged as on the board
 pub mod inav_sitl; // iNav SITL flying the quad-X: faithd, a scripted pilot and the line camera in real time
+pub mod orchestrate; // the lab's runs as the command line orders them: demo, sim and the benches
 pub mod realflight; // iNav SITL's RealFlight interface: iNav's own controller flies a quad-X
 pub mod video; // a flight as a video: every window's picture, decision, gate and roll

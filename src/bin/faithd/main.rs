@@ -5,6 +5,8 @@
 mod docs;
 mod flight;
 #[cfg(feature = "sim")]
+mod progress;
+#[cfg(feature = "sim")]
 mod simulate;
 mod video;
 
@@ -74,6 +76,18 @@ impl Failure {
         Self {
             exit,
             why: Some(why.to_string()),
+        }
+    }
+}
+
+/// A lab run refused or failed, as the command line exits on it.
+#[cfg(feature = "sim")]
+impl From<faithd::orchestrate::error::RunError> for Failure {
+    fn from(e: faithd::orchestrate::error::RunError) -> Self {
+        use faithd::orchestrate::error::RunError;
+        match e {
+            RunError::Refused(why) => Self::refused(why),
+            RunError::Failed(why) => Self::failed(why),
         }
     }
 }

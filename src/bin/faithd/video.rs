@@ -43,7 +43,7 @@ fn parse_speed(text: &str) -> Result<f64, String> {
 pub use flight_build::ReplayFilm;
 
 #[cfg(feature = "sim")]
-pub use workstation::{Filming, ReplayFilm};
+pub use workstation::{ReplayFilm, check_output, write_flight};
 
 /// What a replay's video is of (the flight build, which draws none, reads none of it).
 #[cfg_attr(not(feature = "sim"), allow(dead_code))]
@@ -101,6 +101,7 @@ mod workstation {
 
     use super::{ReplaySource, VideoArgs};
     use crate::Failure;
+    use faithd::closed_loop::film::FilmedFlight;
     use faithd::video::{Film, Frame, TimeSpan, VideoSpec, View};
     use faithd_core::event::Event;
     use faithd_core::pipeline::PipelineConfig;
@@ -139,7 +140,7 @@ mod workstation {
             }
             let film = Film::create(&spec, View::of(pipeline), title, span, period_us)
                 .map_err(|e| Failure::refused(format!("--video: {e}")))?;
-            let progress = crate::simulate::progress_bar(film.frames_for(windows) as u64, "frames");
+            let progress = crate::progress::progress_bar(film.frames_for(windows) as u64, "frames");
             if !show_progress {
                 progress.set_draw_target(indicatif::ProgressDrawTarget::hidden());
             }
@@ -177,6 +178,33 @@ mod workstation {
             );
             Ok(())
         }
+    }
+
+    /// Refuses a video that cannot be written before any flight is flown for it.
+    pub fn check_output(args: &VideoArgs) -> Result<(), Failure> {
+        match &args.video {
+            Some(path) => faithd::video::output::check(path)
+                .map_err(|e| Failure::refused(format!("--video: {e}"))),
+            None => Ok(()),
+        }
+    }
+
+    /// Draws a simulated flight's frames into the video `args` asks for.
+    pub fn write_flight(
+        args: &VideoArgs,
+        film: FilmedFlight,
+        title: String,
+    ) -> Result<(), Failure> {
+        let windows = (film.frames.len(), film.period_us);
+        let Some(mut filming) =
+            Filming::start(args, &film.pipeline, title, film.span, windows, true)?
+        else {
+            return Ok(());
+        };
+        for frame in &film.frames {
+            filming.add(frame).map_err(Failure::failed)?;
+        }
+        filming.finish()
     }
 
     /// A replay's film: every window the replay runs becomes a frame.

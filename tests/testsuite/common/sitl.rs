@@ -13,9 +13,9 @@
 use std::ops::Deref;
 use std::path::PathBuf;
 
-pub use faithd_lab::inav_sitl::monitor::{
-    MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE, MspClient, Sample, unix_us,
-};
+pub use faithd_lab::inav_sitl::clock::unix_us;
+pub use faithd_lab::inav_sitl::monitor::{MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE, Sample};
+pub use faithd_lab::inav_sitl::msp_client::MspClient;
 pub use faithd_lab::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MSP_FAITHD};
 pub use faithd_lab::inav_sitl::radio::{
     AUTO_US, CH_ROLL, CH_SWITCH, CH_THROTTLE, MANUAL_US, PILOT_CHANNELS, PILOT_ROLL_US,

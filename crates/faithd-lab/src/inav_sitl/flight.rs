@@ -19,9 +19,9 @@ use std::sync::mpsc::TrySendError;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use nalgebra::Vector3;
 use serde::Serialize;
 
+use super::course::Course;
 use super::monitor::{self, MODE_ANGLE, Monitor};
 use super::pilot::{Phase, Pilot, Sticks};
 use super::process::{self, Sitl, SitlError, UART_MAVLINK, UART_MSP_FAITHD};
@@ -57,14 +57,6 @@ pub fn next_sim_ip() -> Ipv4Addr {
     let n = NEXT.fetch_add(1, Ordering::Relaxed) % 253;
     Ipv4Addr::new(127, 0, 1, 2 + n as u8)
 }
-
-/// The vehicle takes off this far behind the point where the model's flight starts,
-/// so that it has reached its cruise speed there (2 m/s takes the pilot about two
-/// seconds and three metres).
-pub const RUN_UP_M: f64 = 4.0;
-
-/// Cruise height, metres (the model flies at 1 m).
-pub const HEIGHT_M: f64 = 1.0;
 
 /// The roll is in effect at iNav's mixer once its left and right motors' commands
 /// (0..1 each, summed per side) differ this much the roll's way: in the steady
@@ -126,44 +118,6 @@ pub struct SitlPathPoint {
     pub speed_m_s: f64,
     /// The roll channel iNav used last (MSP_RC).
     pub roll_us: u16,
-}
-
-/// The flight's course: the straight line through `spec`'s offset beside the first
-/// pole, along its heading.
-#[derive(Clone, Copy, Debug)]
-pub struct Course {
-    pub forward: Vector3<f64>,
-    pub right: Vector3<f64>,
-    /// Abeam the first pole, at the offset, on the ground.
-    pub abeam_m: Vector3<f64>,
-}
-
-impl Course {
-    pub fn of(spec: &FlightSpec) -> Self {
-        let (s, c) = spec.heading_deg.to_radians().sin_cos();
-        let forward = Vector3::new(c, s, 0.0);
-        let right = Vector3::new(-s, c, 0.0);
-        let pole = spec.poles[0];
-        Self {
-            forward,
-            right,
-            abeam_m: Vector3::new(pole.0, pole.1, 0.0) + right * spec.lateral_offset_m,
-        }
-    }
-
-    /// Distance still to fly to abeam the pole (negative past it).
-    pub fn to_go_m(&self, position_m: &Vector3<f64>) -> f64 {
-        (self.abeam_m - position_m).dot(&self.forward)
-    }
-
-    /// How far right of the course line.
-    pub fn off_track_m(&self, position_m: &Vector3<f64>) -> f64 {
-        (position_m - self.abeam_m).dot(&self.right)
-    }
-
-    pub fn takeoff_m(&self, spec: &FlightSpec) -> Vector3<f64> {
-        self.abeam_m - self.forward * (spec.start_distance_m + RUN_UP_M)
-    }
 }
 
 /// Flies `spec` with iNav's SITL at `exe` in the loop. The spec's camera must be

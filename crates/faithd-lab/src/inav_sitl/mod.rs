@@ -4,10 +4,13 @@
 //! scripts, flown by a scripted pilot on IBUS, with the real daemon on its MAVLink
 //! and MSP UARTs (`faithd sim --autopilot inav-sitl`).
 
+pub mod clock; // the wall clock in Unix microseconds, the journal's time base
+pub mod course; // where a flight goes: the course line and the height
 pub mod experiment; // many flights, and the model's figures on the same flights
 pub mod flight; // one flight: SITL, physics, pilot, faithd and the line camera
 pub mod measured; // what iNav did in the experiment, and the bounds the model is held to
 pub mod monitor; // what iNav uses, read back over MSP; arming
+pub mod msp_client; // the harness's MSP client and the commands it asks
 pub mod pilot; // the scripted pilot's hands
 pub mod process; // the SITL process and its CLI
 pub mod radio; // the pilot's IBUS receiver

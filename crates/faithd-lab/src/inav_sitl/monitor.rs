@@ -1,21 +1,15 @@
 //! What iNav really uses, read back over MSP on its own UART: the channels after
 //! every override (MSP_RC) and its status (arming flags, active modes), every 10 ms.
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
-use super::process::{Sitl, SitlError, UART_MONITOR, read_timed_out};
+use super::clock::unix_us;
+use super::msp_client::{MSP_BOXIDS, MSP_RC, MSP2_INAV_STATUS, MspClient};
+use super::process::{Sitl, SitlError, UART_MONITOR};
 use super::radio::{CH_ARM, Radio};
-use faithd_daemon::command::msp::{self, Decoder, Frame};
-
-/// MSP commands the harness uses.
-pub const MSP_RC: u16 = 105;
-pub const MSP2_INAV_STATUS: u16 = 0x2000;
-pub const MSP_BOXIDS: u16 = 119;
 
 /// iNav's arming flags (fc/runtime_config.h).
 pub const ARMED: u32 = 1 << 2;
@@ -27,58 +21,6 @@ const ARMING_BLOCKERS: u32 = 0x7FFF_FFC0;
 pub const MODE_ANGLE: u8 = 1;
 pub const MODE_FAILSAFE: u8 = 27;
 pub const MODE_MSP_RC_OVERRIDE: u8 = 50;
-
-/// Microseconds since the Unix epoch: the time base shared with faithd's journal.
-pub fn unix_us() -> i64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_micros() as i64)
-}
-
-/// A blocking MSP v2 client for the harness's own ports.
-pub struct MspClient {
-    stream: TcpStream,
-    decoder: Decoder,
-    frames: Vec<Frame>,
-}
-
-impl MspClient {
-    pub fn connect(port: u16) -> std::io::Result<Self> {
-        let stream = TcpStream::connect(("127.0.0.1", port))?;
-        stream.set_nodelay(true)?;
-        stream.set_read_timeout(Some(Duration::from_millis(20)))?;
-        Ok(Self {
-            stream,
-            decoder: Decoder::default(),
-            frames: Vec::new(),
-        })
-    }
-
-    /// Sends `command` and waits up to 500 ms for its reply.
-    pub fn request(&mut self, command: u16, payload: &[u8]) -> std::io::Result<Vec<u8>> {
-        self.stream
-            .write_all(&msp::encode_request(command, payload))?;
-        let deadline = Instant::now() + Duration::from_millis(500);
-        let mut buf = [0u8; 1024];
-        while Instant::now() < deadline {
-            if let Some(i) = self.frames.iter().position(|f| f.command == command) {
-                let f = self.frames.remove(i);
-                self.frames.clear();
-                return match f.direction {
-                    b'>' => Ok(f.payload),
-                    _ => Err(std::io::Error::other(format!("MSP {command} refused"))),
-                };
-            }
-            match self.stream.read(&mut buf) {
-                Ok(0) => return Err(std::io::ErrorKind::UnexpectedEof.into()),
-                Ok(n) => self.decoder.push(&buf[..n], &mut self.frames),
-                Err(e) if read_timed_out(&e) => {}
-                Err(e) => return Err(e),
-            }
-        }
-        Err(std::io::ErrorKind::TimedOut.into())
-    }
-}
 
 /// What iNav reported at one moment: the channels it uses (MSP_RC, iNav's order:
 /// roll, pitch, yaw, throttle, then AUX1...) and its status.

@@ -5,7 +5,7 @@
 //! roll from faithd alone, msp_override_channels = 1), yaw stays centred (iNav holds
 //! the heading). Updated every 10 ms, as a hand is slower than the radio.
 
-use super::flight::{Course, HEIGHT_M};
+use super::course::{Course, HEIGHT_M};
 use crate::closed_loop::FlightSpec;
 use faithd_inav::msp::{Setup, rc_command};
 use faithd_sim::world::quad_x::{G_M_S2, QuadX, QuadXConfig};

@@ -15,7 +15,7 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU16, Ordering};
 use std::time::{Duration, Instant};
 
-use super::monitor::{MSP_BOXIDS, MspClient};
+use super::msp_client::{MSP_BOXIDS, MspClient, read_timed_out};
 
 /// UART numbers of the set-up (1-based, as iNav names them).
 pub const UART_CLI: u16 = 1;
@@ -311,14 +311,6 @@ impl Drop for Sitl {
         let _ = child.kill();
         let _ = child.wait();
     }
-}
-
-/// A read that ran into the socket's read timeout (nothing came): not an error here.
-pub(super) fn read_timed_out(e: &std::io::Error) -> bool {
-    matches!(
-        e.kind(),
-        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
-    )
 }
 
 /// Types one CLI line and collects what comes back for `settle`.

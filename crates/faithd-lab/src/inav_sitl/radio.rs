@@ -10,7 +10,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use super::monitor::unix_us;
+use super::clock::unix_us;
 use super::process::{Sitl, SitlError, UART_RADIO};
 
 /// Channel values of the pilot's radio, in radio order (1-based channel n at n-1).
