@@ -2,7 +2,9 @@
 //! does I/O; the flight daemon links no lab, no model of iNav and no simulator; the
 //! flight build (no `sim` feature) links neither the lab nor the simulator nor
 //! plotters nor the video encoders; the lab flies the daemon itself. Read from
-//! `cargo tree`, i.e. from what cargo would actually build.
+//! `cargo tree`, i.e. from what cargo would actually build. And inside the crates: no
+//! module imports a sibling that imports it, and no function of the core or the
+//! daemon outgrows 120 lines (the scripts in `tests/tools/`).
 
 use std::process::Command;
 
@@ -93,5 +95,56 @@ fn the_flight_build_links_no_lab_and_no_simulator() {
     assert!(
         workstation.iter().any(|d| d == "faithd-lab"),
         "{workstation:?}"
+    );
+}
+
+/// No module imports a sibling that imports it, in any crate of the workspace: shared
+/// items live down the tree, where both sides import them (`tests/tools/modcycles.py`
+/// reads every `use` and path and follows re-exports to where an item is defined).
+#[test]
+fn no_module_imports_a_sibling_that_imports_it() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut sources: Vec<_> = std::fs::read_dir(root.join("crates"))
+        .unwrap()
+        .map(|entry| entry.unwrap().path().join("src"))
+        .collect();
+    sources.sort();
+    sources.extend([root.join("src"), root.join("libcaer-sys/src")]);
+    let out = std::process::Command::new("python3")
+        .arg(root.join("tests/tools/modcycles.py"))
+        .arg("--siblings")
+        .args(&sources)
+        .output()
+        .expect("python3 runs tests/tools/modcycles.py");
+    let report = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{report}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        report.matches("0 cycle(s)").count(),
+        sources.len() + 1,
+        "{report}"
+    );
+}
+
+/// Every function of the core and of the flight daemon, tests aside, fits in 120
+/// lines: a reader holds it in mind (`tests/tools/fnlen.py`).
+#[test]
+fn no_function_of_the_core_or_the_daemon_is_longer_than_120_lines() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = std::process::Command::new("python3")
+        .arg(root.join("tests/tools/fnlen.py"))
+        .arg("120")
+        .arg(root.join("crates/faithd-core/src"))
+        .arg(root.join("crates/faithd-daemon/src"))
+        .output()
+        .expect("python3 runs tests/tools/fnlen.py");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
     );
 }
