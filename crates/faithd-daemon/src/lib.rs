@@ -9,6 +9,7 @@
 pub mod clock; // the daemon's one monotonic clock, in microseconds
 pub mod config; // faithd.toml: typed settings, checked before anything opens
 pub mod source; // events: the DVS240 over libcaer and its clock, or the bench's sim
+pub mod transport; // the ports faithd opens: serial, TCP, UDP, in-process; bounded writes
 pub mod link; // MAVLink from iNav: vehicle state, attitude, faithd's heartbeat
 pub mod cycle; // the pipeline thread: a window every period, load shedding
 pub mod command; // the roll sent to iNav (MSP RC override) and read back

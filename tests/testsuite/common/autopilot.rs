@@ -333,8 +333,8 @@ impl MockAutopilot {
         source: &str,
     ) -> (
         faithd::config::FaithdConfig,
-        faithd::link::endpoint::Endpoint,
-        faithd::link::endpoint::Endpoint,
+        faithd::transport::Endpoint,
+        faithd::transport::Endpoint,
     ) {
         let text = format!(
             "[mavlink]\nendpoint = \"serial:{}\"\n{}[source]\nkind = \"sim\"\n{source}[record]\nenabled = false\n",

@@ -22,8 +22,8 @@ use tokio::sync::watch;
 use crate::clock::DaemonClock;
 use crate::command::Sink;
 use crate::config::FaithdConfig;
-use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
+use crate::transport::Endpoint;
 pub use faithd_core::safety::commander::{ReportedRoll, RouteStatus};
 
 /// A started route to the autopilot, as the daemon holds it.

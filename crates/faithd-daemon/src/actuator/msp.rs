@@ -14,8 +14,8 @@ use crate::command::fc_check::{Expectations, RouteFacts};
 use crate::command::rxrange::RxRange;
 use crate::command::stream::{self, ReleaseError, StopRequest, StreamHandle, StreamSettings};
 use crate::config::FaithdConfig;
-use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
+use crate::transport::Endpoint;
 
 /// How much longer than a roll lasts the stream holds it before it reverts to the
 /// centre on its own: the commander releases within a few milliseconds of the end.

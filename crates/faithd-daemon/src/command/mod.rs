@@ -15,7 +15,7 @@ pub mod stream;
 
 use serde::{Deserialize, Serialize};
 
-use crate::link::endpoint::{Address, Endpoint};
+use crate::transport::{Address, Endpoint};
 use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::gate::GateConfig;
 use faithd_core::safety::manoeuvre::ManoeuvreConfig;

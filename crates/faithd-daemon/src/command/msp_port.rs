@@ -12,7 +12,7 @@ use std::time::Duration;
 use tokio::io::{AsyncReadExt, ReadHalf, WriteHalf};
 
 use super::msp::{self, Decoder, Frame};
-use crate::link::endpoint::BoxedTransport;
+use crate::transport::BoxedTransport;
 
 /// iNav's serial task runs at 100 Hz and serves one MSP command per port per run
 /// (fc/fc_tasks.c TASK_SERIAL; msp/msp_serial.c "process one command at a time"):
@@ -91,7 +91,7 @@ impl MspPort {
     }
 
     /// Writes one command in its slot and flushes it: a write that returns has left
-    /// faithd. A write stuck for [`crate::link::endpoint::WRITE_TIMEOUT`] fails.
+    /// faithd. A write stuck for [`crate::transport::WRITE_TIMEOUT`] fails.
     /// Returns the time the slot began.
     pub async fn send(&mut self, frame: &[u8]) -> std::io::Result<tokio::time::Instant> {
         // One request outstanding: a reply not read yet (a stop came while it was
@@ -104,7 +104,7 @@ impl MspPort {
         let at = tokio::time::Instant::now();
         self.next_slot = at + Duration::from_micros(MSP_SLOT_US as u64);
         self.pending = frame_command(frame);
-        crate::link::endpoint::write_bounded(&mut self.tx, frame).await?;
+        crate::transport::write_bounded(&mut self.tx, frame).await?;
         Ok(at)
     }
 

@@ -30,8 +30,8 @@ use super::msp;
 use super::msp_port::{self, MspError, MspPort};
 use super::rxrange::RxRange;
 use crate::clock::DaemonClock;
-use crate::link::endpoint::Endpoint;
 use crate::supervise::Heartbeat;
+use crate::transport::Endpoint;
 use faithd_core::safety::commander::{RollReport, RouteStatus};
 use faithd_core::safety::gate::{AutopilotStatus, RouteWords};
 use faithd_core::safety::rc::NEUTRAL_US;
@@ -667,7 +667,7 @@ mod on_the_board {
     use tokio::io::{AsyncReadExt, AsyncWriteExt};
 
     use super::*;
-    use crate::link::endpoint::{Address, InProcessPort};
+    use crate::transport::{Address, InProcessPort};
     use faithd_inav::msp::{InavMsp, Pilot, PortLog, Setup};
 
     /// What iNav used on roll, by daemon time, and the port's log.

@@ -34,8 +34,8 @@ use serde::{Deserialize, Serialize};
 use tokio::sync::{mpsc, watch};
 
 use super::MavlinkConfig;
-use super::endpoint::{self, Address, BoxedTransport, Endpoint};
 use crate::clock::DaemonClock;
+use crate::transport::{self, Address, BoxedTransport, Endpoint};
 use faithd_core::decide::RollDirection;
 use faithd_core::invalid::{Invalid, check};
 use faithd_core::pipeline::PipelineTelemetry;
@@ -603,7 +603,7 @@ async fn serve(
             _ = report.tick() => report_losses(&io.counters, reported),
         }
         if !own.buffer.is_empty() {
-            let written = endpoint::write_bounded(&mut write_half, &own.buffer).await;
+            let written = transport::write_bounded(&mut write_half, &own.buffer).await;
             own.buffer.clear();
             if let Err(e) = written {
                 return format!("write failed: {e}");
@@ -851,7 +851,7 @@ mod tests {
         assert!(VALUE_NAMES.iter().all(|n| n.len() <= 10));
     }
 
-    use crate::link::endpoint::InProcessPort;
+    use crate::transport::InProcessPort;
     use mavlink::dialects::common::{
         ATTITUDE_DATA, COMMAND_LONG_DATA, MavCmd, RC_CHANNELS_OVERRIDE_DATA,
     };

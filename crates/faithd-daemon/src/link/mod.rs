@@ -5,7 +5,6 @@
 //! station link ([`ground`]), which it hands every frame it reads.
 
 pub mod clock_sync;
-pub mod endpoint;
 pub mod ground;
 pub mod telemetry;
 
@@ -21,8 +20,8 @@ use tokio::sync::{mpsc, watch};
 
 use crate::clock::DaemonClock;
 use crate::supervise::Heartbeat;
+use crate::transport::{self, Address, BoxedTransport, Endpoint};
 use clock_sync::ClockSync;
-use endpoint::{Address, BoxedTransport, Endpoint};
 use faithd_core::attitude::AttitudeLog;
 use faithd_core::invalid::{Invalid, check};
 use faithd_core::safety::vehicle::VehicleState;
@@ -300,7 +299,7 @@ async fn serve(
                 if let Some(msg) = frame.decode() {
                     record(outputs, clock, clock.now_us(), frame.header(), &msg);
                 }
-                if let Err(e) = endpoint::write_bounded(&mut write_half, frame.bytes()).await {
+                if let Err(e) = transport::write_bounded(&mut write_half, frame.bytes()).await {
                     return format!("write failed: {e}");
                 }
             }
@@ -367,7 +366,7 @@ async fn send(
     let mut frame = Vec::with_capacity(280);
     mavlink::write_versioned_msg(&mut frame, MavlinkVersion::V2, header, msg)
         .map_err(|e| std::io::Error::other(e.to_string()))?;
-    endpoint::write_bounded(writer, &frame).await
+    transport::write_bounded(writer, &frame).await
 }
 
 /// faithd announces itself as an onboard controller, not an autopilot (to the

@@ -17,7 +17,7 @@ use tokio::sync::mpsc;
 use super::physics::Shared;
 use super::uart;
 use faithd_daemon::clock::DaemonClock;
-use faithd_daemon::link::endpoint::InProcessPort;
+use faithd_daemon::transport::InProcessPort;
 use faithd_inav::mavlink::{self as inav_mavlink, encode};
 use faithd_inav::msp::{InavMsp, Pilot, RollTarget, Setup};
 

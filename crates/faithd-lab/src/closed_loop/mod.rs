@@ -32,7 +32,7 @@ use faithd_daemon::command::{MspSink, Sink};
 use faithd_daemon::config::FaithdConfig;
 use faithd_daemon::cycle::CycleReport;
 use faithd_daemon::daemon::{self, Ended, Execution, Hooks, Observation};
-use faithd_daemon::link::endpoint::Address;
+use faithd_daemon::transport::Address;
 pub use faithd_sim::world::SceneKind;
 use physics::{PathPoint, Shared, VEHICLE_RADIUS_M};
 

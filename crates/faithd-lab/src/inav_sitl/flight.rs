@@ -35,7 +35,7 @@ use faithd_daemon::clock::DaemonClock;
 use faithd_daemon::command::{MspSink, Sink};
 use faithd_daemon::config::FaithdConfig;
 use faithd_daemon::daemon::{self, Ended, Execution, Hooks, Observation};
-use faithd_daemon::link::endpoint::Address;
+use faithd_daemon::transport::Address;
 use faithd_sim::world::line_camera::LineCamera;
 use faithd_sim::world::quad_x::{QuadX, QuadXConfig};
 

@@ -1,4 +1,6 @@
-//! Where the autopilot is: a serial port on the drone, TCP or UDP on the bench.
+//! The ports faithd opens to reach the autopilot and the ground: a serial port on the
+//! drone, TCP or UDP on the bench, an in-process port in the lab. Both MAVLink links
+//! and the MSP stream open them, so they are a module of their own.
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
