@@ -806,6 +806,16 @@ fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
     );
 }
 
+/// Exit 0 within [`EXIT_WITHIN`], the camera's own line in the journal, and the
+/// one device opened, started, stopped and closed, in that order.
+fn assert_streaming_camera_stopped_and_closed(run: &Sigtermed) {
+    let text = &run.journal;
+    assert_eq!(run.status.code(), Some(0), "{text}");
+    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
+    assert!(text.contains("camera stopped and closed"), "{text}");
+    assert_eq!(run.calls, ["Open", "DataStart", "DataStop", "Close"]);
+}
+
 /// SIGTERM while the camera streams: the transfer is stopped and the device closed
 /// before faithd exits 0.
 #[test]
@@ -813,11 +823,7 @@ fn faithd_run_stops_the_camera_and_closes_it_on_sigterm_while_streaming() {
     let run = faithd_run_until_sigterm("caer-streaming", &[], |t| {
         t.contains("camera open: streaming") && t.contains("ready:")
     });
-    let text = &run.journal;
-    assert_eq!(run.status.code(), Some(0), "{text}");
-    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
-    assert!(text.contains("camera stopped and closed"), "{text}");
-    assert_eq!(run.calls, ["Open", "DataStart", "DataStop", "Close"]);
+    assert_streaming_camera_stopped_and_closed(&run);
 }
 
 /// SIGTERM in a dark scene (no events for a minute, where a blocking read would sit
@@ -827,11 +833,7 @@ fn faithd_run_stops_the_camera_and_closes_it_on_sigterm_in_a_dark_scene() {
     let run = faithd_run_until_sigterm("caer-dark", &[("CAER_MOCK_QUIET", "5,60000000")], |t| {
         t.contains("camera open: streaming") && t.contains("ready:")
     });
-    let text = &run.journal;
-    assert_eq!(run.status.code(), Some(0), "{text}");
-    assert!(run.took < EXIT_WITHIN, "{:?}\n{text}", run.took);
-    assert!(text.contains("camera stopped and closed"), "{text}");
-    assert_eq!(run.calls, ["Open", "DataStart", "DataStop", "Close"]);
+    assert_streaming_camera_stopped_and_closed(&run);
 }
 
 /// Runs the source on a thread of its own with a stop of its own, waits until
