@@ -34,12 +34,18 @@
  * - When the device goes away, libcaer's USB thread stops the transfers and then
  *   calls the shutdown callback given to DataStart: from that thread, not from DataGet.
  *
- * The stream: a vertical edge sweeping right (ON events, one per row, 1 ms of device
- * time per container, plus one invalid event), paced in real time (a container is
+ * The stream: a vertical edge sweeping right (ON events, one per row and column, one
+ * column per millisecond of device time, as many as the container interval holds:
+ * 10 ms unless CAER_HOST_CONFIG_PACKETS_MAX_CONTAINER_INTERVAL is set, plus one
+ * invalid event), paced in real time (a container is
  * handed out once the device clock, at a settable rate, has passed its newest event,
  * plus a settable random USB latency), an optional quiet gap (a dark scene), then the
  * device vanishes after a scripted number of containers, refuses some opens and
- * returns. Frames and IMU samples are interleaved while the APS and IMU run, and a
+ * returns; after it went away, the two containers still queued are handed out
+ * before DataGet returns NULL. A DVXplorer (caer_mock_device) has its own info call,
+ * configuration modules (dvxplorer.h) and no APS. caerDeviceDiscover reports the one
+ * camera, or none while it is away, with the error flags an unusable camera sets.
+ * Frames and IMU samples are interleaved while the APS and IMU run, and a
  * run flag turned off takes effect only after the containers already in flight.
  */
 #define _GNU_SOURCE
@@ -149,6 +155,8 @@ struct caer_device_handle {
     pthread_t notifier;
     /* Containers served while the APS / IMU ran, as seen by the data path. */
     int32_t aps_off_from, imu_off_from;
+    /* Containers still in the ring buffer after the device went away. */
+    int32_t queued_left;
 };
 
 static int32_t script_before_disconnect = 1000000;
@@ -159,13 +167,20 @@ static atomic_bool vanished = false;
 static int64_t stream_time_us = 0;
 static int32_t quiet_after = -1;
 static int64_t quiet_us = 0;
-static int64_t config_values[16][256];
-static bool config_set[16][256];
+/* Modules -8..23: the host's (negative), the DAVIS's and the DVXplorer's (20-23). */
+#define CONFIG_MODULES 32
+static int64_t config_values[CONFIG_MODULES][256];
+static bool config_set[CONFIG_MODULES][256];
 /* The caller's own writes (not the library's): -1 never, 0 before DataStart, 1 while
    started. */
-static int8_t caller_write[16][256];
+static int8_t caller_write[CONFIG_MODULES][256];
 static bool blocking = false;
 static int16_t sensor_width_px = 240, sensor_height_px = 180;
+/* The camera: CAER_DEVICE_DAVIS (4) or CAER_DEVICE_DVXPLORER (8), and what makes it
+   unusable (UNUSABLE_*). */
+static uint16_t device_type = 4;
+static int32_t unusable = 0;
+enum { UNUSABLE_PERMISSION = 1, UNUSABLE_VERSION = 2, UNUSABLE_BUSY = 3 };
 static int32_t failures = 0;
 static int32_t starts = 0, stops = 0, closes = 0;
 static int32_t packets_served[DAVIS_SLOTS];
@@ -206,6 +221,8 @@ void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens
     blocking = false;
     sensor_width_px = 240;
     sensor_height_px = 180;
+    device_type = 4;
+    unusable = 0;
     failures = 0;
     starts = stops = closes = 0;
     memset(packets_served, 0, sizeof(packets_served));
@@ -221,7 +238,9 @@ void caer_mock_script(int32_t containers_before_disconnect, int32_t failed_opens
  * is loaded. CAER_MOCK_SENSOR=WxH, CAER_MOCK_DISCONNECT_AFTER=containers,
  * CAER_MOCK_FAILED_OPENS=opens refused after the disconnect, CAER_MOCK_FAIL=a sum of
  * 1 (default config refused), 2 (data start fails), 4 (no DVS size),
- * CAER_MOCK_QUIET=after,gap_us (a dark scene, as caer_mock_quiet), and
+ * CAER_MOCK_QUIET=after,gap_us (a dark scene, as caer_mock_quiet),
+ * CAER_MOCK_DEVICE=dvxplorer (a DVXplorer instead of a DAVIS: caer_mock_device),
+ * CAER_MOCK_UNUSABLE=permission|version|busy (caer_mock_unusable), and
  * CAER_MOCK_LOG=a file to which every Open, DataStart, DataStop and Close is appended
  * as it happens (a line each, with CLOCK_MONOTONIC in microseconds), for a test to
  * read what a process it does not share did to the device.
@@ -248,7 +267,20 @@ __attribute__((constructor)) static void caer_mock_from_env(void) {
         quiet_us = (int64_t) gap;
     }
     call_log_path = getenv("CAER_MOCK_LOG");
+    const char *device = getenv("CAER_MOCK_DEVICE");
+    if (device && strcmp(device, "dvxplorer") == 0) device_type = 8;
+    const char *why = getenv("CAER_MOCK_UNUSABLE");
+    if (why && strcmp(why, "permission") == 0) unusable = UNUSABLE_PERMISSION;
+    if (why && strcmp(why, "version") == 0) unusable = UNUSABLE_VERSION;
+    if (why && strcmp(why, "busy") == 0) unusable = UNUSABLE_BUSY;
 }
+
+/* The camera's family: 4 (DAVIS) or 8 (DVXplorer); `set` restores the DAVIS. */
+void caer_mock_device(uint16_t type) { device_type = type; }
+
+/* What makes the camera on USB unusable: 0 nothing, 1 no permission, 2 firmware too
+   old, 3 claimed by another program; `set` restores 0. */
+void caer_mock_unusable(int32_t why) { unusable = why; }
 
 void caer_mock_sensor(int16_t width_px, int16_t height_px) {
     sensor_width_px = width_px;
@@ -327,7 +359,7 @@ int32_t caer_mock_packets_served(int32_t event_type) {
 
 static bool config_index(int8_t mod, int *m) {
     *m = mod + 8;
-    return *m >= 0 && *m < 16;
+    return *m >= 0 && *m < CONFIG_MODULES;
 }
 
 int64_t caer_mock_config_value(int8_t mod, uint8_t param) {
@@ -377,12 +409,70 @@ static bool davis240_takes(int8_t mod, uint8_t p) {
     }
 }
 
+/* The (module, parameter) pairs a DVXplorer takes (dvxplorer.h): MUX, DVS run, the
+   IMU's writable ones, external input, USB, and the sensor's modules 20-23. */
+static bool dvxplorer_takes(int8_t mod, uint8_t p) {
+    switch (mod) {
+        case HOST_USB: return p <= 1;
+        case HOST_DATAEXCHANGE: return p <= 3;
+        case HOST_PACKETS: return p <= 1;
+        case HOST_LOG: return p == 0;
+        case MOD_MUX: return p <= 5;
+        case MOD_DVS: return p == 3;
+        case MOD_IMU: return p >= 2 && p <= 10;
+        case MOD_EXTINPUT: return p <= 5 || (p >= 11 && p <= 16);
+        case MOD_USB: return p <= 1;
+        case 20: return p <= 46;
+        case 21: return p <= 4;
+        case 22: return p <= 5;
+        case 23: return p <= 10 || p == 20;
+        default: return false;
+    }
+}
+
+static bool device_takes(int8_t mod, uint8_t p) {
+    return device_type == 8 ? dvxplorer_takes(mod, p) : davis240_takes(mod, p);
+}
+
+/* caerDeviceDiscover's result (devices/device_discover.h): the type and the two
+   error flags, then (at 8) the family's info, whose first fields the DAVIS and
+   DVXplorer infos share; 104 bytes an entry on 64-bit targets (the union is as large
+   as struct caer_edvs_info). */
+#define DISCOVERY_RESULT_BYTES (8 + 96)
+
+/* As usbDeviceFind (usb_utils.c) reports the one camera: none while it is away; an
+   open error when libusb_open is refused; a version error (firmware 3 where the
+   DAVIS240 needs 4, logic 17 where 18) when it is too old; neither when it is only
+   claimed by another program. */
+long caerDeviceDiscover(int16_t type, void **out) {
+    *out = NULL;
+    log_call("Discover");
+    if (atomic_load(&vanished) || (type != -1 && (uint16_t) type != device_type)) return 0;
+    uint8_t *r = calloc(1, DISCOVERY_RESULT_BYTES);
+    if (r == NULL) return -1;
+    uint16_t t = device_type;
+    memcpy(r, &t, 2);
+    r[2] = unusable == UNUSABLE_PERMISSION;
+    r[3] = unusable == UNUSABLE_VERSION;
+    uint8_t *info = r + 8;
+    memcpy(info + 2, "00000001", 9);
+    info[11] = 1; /* bus */
+    info[12] = 5; /* address */
+    int16_t fw = unusable == UNUSABLE_VERSION ? 3 : 4, logic = unusable == UNUSABLE_VERSION ? 17 : 18;
+    int16_t chip = unusable == UNUSABLE_PERMISSION ? 0 : (device_type == 8 ? 20 : (sensor_width_px == 346 ? 5 : 2));
+    memcpy(info + 24, &fw, 2);
+    memcpy(info + 26, &logic, 2);
+    memcpy(info + 28, &chip, 2);
+    *out = r;
+    return 1;
+}
+
 struct caer_device_handle *caerDeviceOpen(uint16_t id, uint16_t type, uint8_t bus, uint8_t addr,
                                           const char *serial) {
     (void) id; (void) bus; (void) addr; (void) serial;
     open_attempts++;
     log_call("Open");
-    if (type != 4) return NULL;
+    if (type != device_type || unusable != 0) return NULL;
     if (atomic_load(&vanished)) {
         if (failed_opens_left > 0) { failed_opens_left--; return NULL; }
         atomic_store(&vanished, false);
@@ -416,7 +506,7 @@ bool caerDeviceSendDefaultConfig(struct caer_device_handle *h) {
 struct caer_davis_info caerDavisInfoGet(struct caer_device_handle *h) {
     struct caer_davis_info info;
     memset(&info, 0, sizeof info);
-    if (h == NULL || (failures & FAIL_INFO)) return info; /* libcaer: all zeros on failure */
+    if (h == NULL || (failures & FAIL_INFO) || device_type != 4) return info; /* libcaer: zeros */
     info.deviceID = 1;
     memcpy(info.deviceSerialNumber, "00000001", 9);
     info.chipID = sensor_width_px == 346 ? 5 /* DAVIS346B */ : 2 /* DAVIS240C */;
@@ -428,8 +518,43 @@ struct caer_davis_info caerDavisInfoGet(struct caer_device_handle *h) {
     return info;
 }
 
+/* libcaer 3's struct caer_dvx_info (devices/dvxplorer.h). */
+struct caer_dvx_info {
+    int16_t deviceID;
+    char deviceSerialNumber[8 + 1];
+    uint8_t deviceUSBBusNumber;
+    uint8_t deviceUSBDeviceAddress;
+    char *deviceString;
+    int16_t firmwareVersion;
+    int16_t logicVersion;
+    int16_t chipID;
+    bool deviceIsMaster;
+    bool muxHasStatistics;
+    int16_t dvsSizeX;
+    int16_t dvsSizeY;
+    bool dvsHasStatistics;
+    enum { DVX_IMU_NONE = 0 } imuType;
+    bool extInputHasGenerator;
+};
+#if UINTPTR_MAX == 0xFFFFFFFFFFFFFFFFu
+_Static_assert(sizeof(struct caer_dvx_info) == 48, "libcaer 3 layout");
+#endif
+
+struct caer_dvx_info caerDVXplorerInfoGet(struct caer_device_handle *h) {
+    struct caer_dvx_info info;
+    memset(&info, 0, sizeof info);
+    if (h == NULL || (failures & FAIL_INFO) || device_type != 8) return info;
+    info.deviceID = 1;
+    memcpy(info.deviceSerialNumber, "00000001", 9);
+    info.chipID = sensor_width_px == 320 ? 19 /* Lite */ : 20;
+    info.deviceIsMaster = true;
+    info.dvsSizeX = sensor_width_px;
+    info.dvsSizeY = sensor_height_px;
+    return info;
+}
+
 bool caerDeviceConfigSet(struct caer_device_handle *h, int8_t mod, uint8_t param, uint32_t value) {
-    if (h == NULL || !davis240_takes(mod, param)) return false;
+    if (h == NULL || !device_takes(mod, param)) return false;
     if (mod == HOST_DATAEXCHANGE && param == DATAEXCHANGE_BLOCKING) blocking = value != 0;
     store_config(mod, param, value);
     int m;
@@ -453,7 +578,7 @@ static void run_flags(bool on) {
     store_config(MOD_MUX, MUX_TIMESTAMP_RUN, on);
     store_config(MOD_MUX, MUX_RUN, on);
     store_config(MOD_DVS, DVS_RUN, on);
-    store_config(MOD_APS, APS_RUN, on);
+    if (device_type == 4) store_config(MOD_APS, APS_RUN, on);
     store_config(MOD_IMU, IMU_RUN_ACCELEROMETER, on);
     store_config(MOD_IMU, IMU_RUN_GYROSCOPE, on);
     store_config(MOD_IMU, IMU_RUN_TEMPERATURE, on);
@@ -592,20 +717,23 @@ static struct caer_event_packet_container *timestamp_reset_container(void) {
    25th container (an external-input edge), a frame every other container while the
    APS runs, an IMU sample while the IMU runs; the other slots NULL. */
 static struct caer_event_packet_container *data_container(int32_t k, int64_t t0_us, int32_t x,
-                                                           bool aps, bool imu) {
-    const int32_t rows = 180, n = rows + 1;
+                                                           int32_t columns, bool aps, bool imu) {
+    const int32_t rows = 180, valid_n = rows * columns, n = valid_n + 1;
+    const int32_t width = sensor_width_px > 0 ? sensor_width_px : 240;
     struct caer_event_packet_container *c = container_allocate(DAVIS_SLOTS);
     if (c == NULL) return NULL;
-    uint8_t *pol = packet_allocate(POLARITY_EVENT, POLARITY_CAPACITY, POLARITY_EVENT_BYTES, 4, overflow_of(t0_us));
+    int32_t capacity = n > POLARITY_CAPACITY ? n : POLARITY_CAPACITY;
+    uint8_t *pol = packet_allocate(POLARITY_EVENT, capacity, POLARITY_EVENT_BYTES, 4, overflow_of(t0_us));
     if (pol == NULL) { free(c); return NULL; }
-    for (int32_t r = 0; r < n; r++) {
-        uint8_t *e = event_at(pol, r);
-        bool valid = r < rows;
-        uint32_t data = ((uint32_t) x << 17) | ((uint32_t) (r % rows) << 2) | 2u | (valid ? 1u : 0u);
+    for (int32_t i = 0; i < n; i++) {
+        uint8_t *e = event_at(pol, i);
+        bool valid = i < valid_n;
+        int32_t col = (i / rows) % columns, r = i % rows;
+        uint32_t data = ((uint32_t) ((x + col) % width) << 17) | ((uint32_t) r << 2) | 2u | (valid ? 1u : 0u);
         put_i32(e, (int32_t) data);
-        put_i32(e + 4, ts31(t0_us + r));
+        put_i32(e + 4, ts31(t0_us + 1000 * col + r));
     }
-    packet_count(pol, n, rows);
+    packet_count(pol, n, valid_n);
     container_set(c, POLARITY_EVENT, pol);
     packets_served[POLARITY_EVENT]++;
     if (k % 25 == 0) {
@@ -658,7 +786,7 @@ static struct caer_event_packet_container *data_container(int32_t k, int64_t t0_
 /* Exported for tests of readers: container k as DataGet makes it, with the APS and
    the IMU running (free it as libcaer's are freed). */
 struct caer_event_packet_container *caer_mock_container(int32_t k, int64_t t0_us, int32_t x) {
-    return data_container(k, t0_us, x, true, true);
+    return data_container(k, t0_us, x, 1, true, true);
 }
 
 /* Exported for tests of readers: the container libcaer sends alone after a
@@ -676,24 +804,62 @@ static void *notify_shutdown(void *arg) {
     return NULL;
 }
 
+/* The span of device time a container holds: CAER_HOST_CONFIG_PACKETS_MAX_CONTAINER_INTERVAL,
+   10000 us unless set (libcaer's default, container_generation.h; measured on 3.3.15:
+   about 100 containers a second, 9.2 ms mean span). One edge column per millisecond. */
+static int32_t container_columns(void) {
+    int64_t interval_us = caer_mock_config_value(HOST_PACKETS, 1);
+    if (interval_us < 0) interval_us = 10000;
+    int64_t columns = interval_us / 1000;
+    return columns < 1 ? 1 : (columns > 100 ? 100 : (int32_t) columns);
+}
+
+/* The next container of the session, built now. */
+static struct caer_event_packet_container *next_container(struct caer_device_handle *h, int64_t t0_us,
+                                                          int32_t columns) {
+    int32_t k = h->served;
+    bool aps = device_type == 4 && (h->aps_off_from < 0 || k < h->aps_off_from);
+    bool imu = h->imu_off_from < 0 || k < h->imu_off_from;
+    int32_t x = (k * columns) % (sensor_width_px > 0 ? sensor_width_px : 240);
+    struct caer_event_packet_container *c = data_container(k, t0_us, x, columns, aps, imu);
+    stream_time_us = t0_us + 1000 * columns;
+    h->served++;
+    return c;
+}
+
+/* The device goes away: transfers stop, libcaer's USB thread calls back a little
+   later, and the containers already in the ring buffer are still handed out (as
+   libcaer 3.3.15 was seen to) before DataGet returns NULL. */
+#define QUEUED_AFTER_UNPLUG 2
+static void unplug(struct caer_device_handle *h) {
+    atomic_store(&h->transfers, false);
+    atomic_store(&vanished, true);
+    failed_opens_left = script_failed_opens;
+    h->queued_left = QUEUED_AFTER_UNPLUG;
+    if (pthread_create(&h->notifier, NULL, notify_shutdown, h) == 0) h->notifier_started = true;
+}
+
 struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle *h) {
-    if (h == NULL || !h->started || !atomic_load(&h->transfers)) return NULL;
+    if (h == NULL || !h->started) return NULL;
+    int32_t columns = container_columns();
+    if (!atomic_load(&h->transfers)) {
+        if (h->queued_left <= 0) return NULL;
+        h->queued_left--;
+        return next_container(h, stream_time_us, columns);
+    }
     if (!h->reset_sent) {
         h->reset_sent = true;
         return timestamp_reset_container();
     }
     if (h->served >= script_before_disconnect) {
-        atomic_store(&h->transfers, false);
-        atomic_store(&vanished, true);
-        failed_opens_left = script_failed_opens;
-        if (pthread_create(&h->notifier, NULL, notify_shutdown, h) == 0) h->notifier_started = true;
+        unplug(h);
         return NULL;
     }
     /* Handed out once the device clock has passed the newest valid event, plus USB
        latency. */
     int64_t t0_us = stream_time_us;
     if (quiet_after >= 0 && h->served == quiet_after) t0_us += quiet_us;
-    int64_t newest_us = t0_us + 179;
+    int64_t newest_us = t0_us + 1000 * (columns - 1) + 179;
     int64_t due_us = caer_mock_true_host_us(newest_us) + next_latency_us();
     int64_t now_us = caer_mock_now_us();
     if (due_us > now_us) {
@@ -706,12 +872,5 @@ struct caer_event_packet_container *caerDeviceDataGet(struct caer_device_handle 
         }
         sleep_until_us(due_us);
     }
-    int32_t k = h->served;
-    bool aps = h->aps_off_from < 0 || k < h->aps_off_from;
-    bool imu = h->imu_off_from < 0 || k < h->imu_off_from;
-    int32_t x = k % (sensor_width_px > 0 ? sensor_width_px : 240);
-    struct caer_event_packet_container *c = data_container(k, t0_us, x, aps, imu);
-    stream_time_us = t0_us + 1000;
-    h->served++;
-    return c;
+    return next_container(h, t0_us, columns);
 }

@@ -38,9 +38,14 @@ pub type caerEventPacketContainer = *mut caer_event_packet_container;
 /// Pointer to an event packet: header then events.
 pub type caerEventPacketHeader = *mut u8;
 
-/// DAVIS cameras over USB (DAVIS240, which the DVS240 is).
+/// DAVIS cameras over USB, FX2 and FX3 boards alike (the DAVIS240, which the DVS240
+/// is, and the DAVIS346): `devices/davis.h` line 36.
 pub const CAER_DEVICE_DAVIS: u16 = 4;
 pub const CAER_DEVICE_DVS128: u16 = 0;
+/// The DVXplorer family (DVXplorer, Micro, Lite): `devices/dvxplorer.h` line 24.
+pub const CAER_DEVICE_DVXPLORER: u16 = 8;
+/// `caerDeviceDiscover`'s "every device type" (`devices/device_discover.h` line 54).
+pub const CAER_DEVICE_DISCOVER_ALL: i16 = -1;
 
 pub const CAER_HOST_CONFIG_DATAEXCHANGE: i8 = -2;
 pub const CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING: u8 = 1;
@@ -140,6 +145,75 @@ impl caer_davis_info {
     }
 }
 
+/// `struct caer_dvx_info` of libcaer 3.x (`libcaer/devices/dvxplorer.h` line 643), as
+/// `caerDVXplorerInfoGet` returns it by value; the layout is pinned as
+/// [`caer_davis_info`]'s is, for the same reason.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct caer_dvx_info {
+    pub deviceID: i16,
+    pub deviceSerialNumber: [c_char; 9],
+    pub deviceUSBBusNumber: u8,
+    pub deviceUSBDeviceAddress: u8,
+    /// Valid only while the device is open; faithd does not read it.
+    pub deviceString: *mut c_char,
+    pub firmwareVersion: i16,
+    pub logicVersion: i16,
+    pub chipID: i16,
+    pub deviceIsMaster: bool,
+    pub muxHasStatistics: bool,
+    pub dvsSizeX: i16,
+    pub dvsSizeY: i16,
+    pub dvsHasStatistics: bool,
+    /// `enum caer_imu_types`.
+    pub imuType: i32,
+    pub extInputHasGenerator: bool,
+}
+
+#[cfg(target_pointer_width = "64")]
+const _: () = {
+    use std::mem::{offset_of, size_of};
+    assert!(size_of::<caer_dvx_info>() == 48);
+    assert!(offset_of!(caer_dvx_info, chipID) == 28);
+    assert!(offset_of!(caer_dvx_info, dvsSizeX) == 32);
+    assert!(offset_of!(caer_dvx_info, dvsSizeY) == 34);
+    assert!(offset_of!(caer_dvx_info, imuType) == 40);
+};
+
+impl caer_dvx_info {
+    /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell
+    /// (all zeros on failure, as for the DAVIS).
+    pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
+        let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
+        let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
+        Some((x, y))
+    }
+}
+
+/// The head of libcaer 3.x's `struct caer_device_discovery_result`
+/// (`devices/device_discover.h` lines 29-42): the device type and the two error flags
+/// `usbDeviceFind` (`src/usb_utils.c`, 3.3.9) sets: `deviceErrorOpen` when
+/// `libusb_open` failed (no permission), or reading its serial number or logic
+/// version did; `deviceErrorVersion` when its firmware (`bcdDevice`) or logic version
+/// is not the one libcaer requires. The union of per-family infos follows at
+/// [`DISCOVERY_INFO_OFFSET`]; faithd reads the DAVIS and DVXplorer ones.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct caer_device_discovery_head {
+    pub deviceType: u16,
+    pub deviceErrorOpen: bool,
+    pub deviceErrorVersion: bool,
+}
+
+/// Where the info union starts: aligned to its pointer members (`char *deviceString`).
+pub const DISCOVERY_INFO_OFFSET: usize = std::mem::align_of::<*const c_char>();
+/// Size of one discovery result on 64-bit targets: the head, then the union, as large
+/// as its largest member, `struct caer_edvs_info` (96 bytes: `devices/edvs.h`, its
+/// 64-byte `serialPortName` and the baud rate). Checked against the real library by
+/// the USB stand-in's tests.
+#[cfg(target_pointer_width = "64")]
+pub const DISCOVERY_RESULT_BYTES: usize = 8 + 96;
+
 /// The library names tried, in order, when no path is configured: libcaer 3's
 /// soname, then the development symlink.
 pub const DEFAULT_NAMES: [&str; 2] = ["libcaer.so.3", "libcaer.so"];
@@ -147,8 +221,11 @@ pub const DEFAULT_NAMES: [&str; 2] = ["libcaer.so.3", "libcaer.so"];
 /// Why libcaer could not be used.
 #[derive(Debug)]
 pub enum LoadError {
-    /// No library under any of the names tried (the loader's messages, joined).
+    /// No library under any of the names tried (the loader's messages, joined), or no
+    /// file at the path given.
     NotFound(String),
+    /// The path names a directory, or a file the loader cannot load.
+    NotALibrary(String),
     /// The library lacks a function faithd calls: not libcaer 3.
     MissingSymbol {
         library: String,
@@ -160,6 +237,7 @@ impl std::fmt::Display for LoadError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             LoadError::NotFound(why) => write!(f, "libcaer not found: {why}"),
+            LoadError::NotALibrary(why) => f.write_str(why),
             LoadError::MissingSymbol { library, symbol } => {
                 write!(f, "{library} has no `{symbol}`: not libcaer 3.x")
             }
@@ -190,9 +268,7 @@ macro_rules! libcaer_functions {
         impl Libcaer {
             /// Opens the library at `path` (a path, or a name for the loader to find).
             pub fn load_from(path: &str) -> Result<Self, LoadError> {
-                // SAFETY: loading runs the library's initialisers; libcaer's are plain.
-                let library = unsafe { libloading::Library::new(path) }
-                    .map_err(|e| LoadError::NotFound(format!("{path}: {e}")))?;
+                let library = open_library(path)?;
                 $(
                     // SAFETY: the type is libcaer 3's declaration of the function; the
                     // pointer is used only while `_library` keeps it mapped.
@@ -238,6 +314,12 @@ libcaer_functions! {
     // stream from a camera whose size it could not check (a DAVIS346 read as a 240x180
     // would be silently cropped).
     caerDavisInfoGet: fn(handle: caerDeviceHandle) -> caer_davis_info;
+    // The DVXplorer family's info (libcaer 3.0 and later).
+    caerDVXplorerInfoGet: fn(handle: caerDeviceHandle) -> caer_dvx_info;
+    // Tells why no camera opened: none on USB, or one that could not be opened or
+    // has the wrong firmware (`devices/device_discover.h` line 67). The results are
+    // calloc'ed by libcaer and freed with `free`.
+    caerDeviceDiscover: fn(device_type: i16, results: *mut *mut c_void) -> isize;
 }
 
 impl Libcaer {
@@ -259,12 +341,101 @@ impl Libcaer {
     }
 }
 
+/// Opens a library file, telling a missing file, a directory and a file that is not
+/// a shared library for this machine apart (the loader says "cannot open" to all).
+/// A bare name (no `/`) is the loader's search, and failing it is `NotFound`.
+fn open_library(path: &str) -> Result<libloading::Library, LoadError> {
+    if path.contains('/') {
+        match std::fs::metadata(path) {
+            Err(e) => return Err(LoadError::NotFound(format!("{path}: {e}"))),
+            Ok(m) if m.is_dir() => {
+                return Err(LoadError::NotALibrary(format!("{path} is a directory")));
+            }
+            Ok(_) => {}
+        }
+    }
+    // SAFETY: loading runs the library's initialisers; libcaer's are plain.
+    unsafe { libloading::Library::new(path) }.map_err(|e| {
+        if path.contains('/') {
+            LoadError::NotALibrary(format!(
+                "{path} is not a shared library for this machine: {e}"
+            ))
+        } else {
+            LoadError::NotFound(format!("{path}: {e}"))
+        }
+    })
+}
+
+/// One camera `caerDeviceDiscover` found, and whether libcaer could use it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Discovered {
+    pub device_type: u16,
+    /// `libusb_open` failed (no permission on the device node), or reading its serial
+    /// number or logic version did.
+    pub error_open: bool,
+    /// Its firmware or logic is not the version this libcaer requires.
+    pub error_version: bool,
+    pub firmware_version: i16,
+    pub logic_version: i16,
+    /// 0 when the device could not be opened.
+    pub chip_id: i16,
+    pub usb_bus: u8,
+    pub usb_address: u8,
+}
+
+impl Libcaer {
+    /// Every camera of `device_type` on USB, as `caerDeviceDiscover` reports them
+    /// (it opens each briefly, but claims none), or `None` when libusb failed.
+    /// Reads the fields the DAVIS and DVXplorer infos share at the same offsets
+    /// (serial, bus, address, firmware, logic, chip: `caer_davis_info`,
+    /// `caer_dvx_info`); an entry of another type is skipped.
+    pub fn discover(&self, device_type: u16) -> Option<Vec<Discovered>> {
+        let mut results: *mut c_void = std::ptr::null_mut();
+        let wanted = i16::try_from(device_type).ok()?;
+        // SAFETY: libcaer writes a calloc'ed array (or NULL) to `results`.
+        let count = unsafe { (self.caerDeviceDiscover)(wanted, &mut results) };
+        if count < 0 {
+            return None;
+        }
+        let mut found = Vec::new();
+        for i in 0..count as usize {
+            // SAFETY: `count` results of DISCOVERY_RESULT_BYTES each (libcaer 3.x's
+            // struct); the head is at the start, the info at its offset, and both
+            // info structs share these fields' offsets.
+            let entry = unsafe { results.cast::<u8>().add(i * DISCOVERY_RESULT_BYTES) };
+            // SAFETY: as above; read unaligned, as nothing promises more.
+            let head = unsafe { entry.cast::<caer_device_discovery_head>().read_unaligned() };
+            if head.deviceType != device_type {
+                continue;
+            }
+            // SAFETY: as above: a DAVIS or DVXplorer info begins the union.
+            let info = unsafe {
+                entry
+                    .add(DISCOVERY_INFO_OFFSET)
+                    .cast::<caer_dvx_info>()
+                    .read_unaligned()
+            };
+            found.push(Discovered {
+                device_type,
+                error_open: head.deviceErrorOpen,
+                error_version: head.deviceErrorVersion,
+                firmware_version: info.firmwareVersion,
+                logic_version: info.logicVersion,
+                chip_id: info.chipID,
+                usb_bus: info.deviceUSBBusNumber,
+                usb_address: info.deviceUSBDeviceAddress,
+            });
+        }
+        // SAFETY: libcaer allocated the array with calloc; free(NULL) is a no-op.
+        unsafe { free(results) };
+        Some(found)
+    }
+}
+
 /// Whether the library at `path` exports `symbol` (what `dlsym` finds): how a libcaer
 /// build is checked against [`LOADED_SYMBOLS`] and [`INLINE_IN_LIBCAER`].
 pub fn exports(path: &str, symbol: &str) -> Result<bool, LoadError> {
-    // SAFETY: loading runs the library's initialisers; libcaer's are plain.
-    let library = unsafe { libloading::Library::new(path) }
-        .map_err(|e| LoadError::NotFound(format!("{path}: {e}")))?;
+    let library = open_library(path)?;
     // SAFETY: the symbol is looked up, never called.
     let found = unsafe { library.get::<*const c_void>(symbol.as_bytes()) }.is_ok();
     Ok(found)
@@ -442,6 +613,18 @@ pub mod mock {
     /// `caerDavisInfoGet` returns all zeros (no DVS size).
     pub const FAIL_INFO: i32 = 4;
 
+    /// `caer_mock_unusable` causes, as `caerDeviceDiscover` and `caerDeviceOpen` show
+    /// them: no permission on the device node, firmware too old, claimed by another
+    /// program.
+    pub const UNUSABLE_PERMISSION: i32 = 1;
+    pub const UNUSABLE_VERSION: i32 = 2;
+    pub const UNUSABLE_BUSY: i32 = 3;
+
+    /// Containers still handed out after the device went away (they were in
+    /// libcaer's ring buffer), before DataGet returns NULL: the mock's
+    /// `QUEUED_AFTER_UNPLUG`.
+    pub const QUEUED_AFTER_UNPLUG: usize = 2;
+
     /// `caer_mock_count` subjects.
     pub const COUNT_STARTS: i32 = 0;
     pub const COUNT_STOPS: i32 = 1;
@@ -498,6 +681,11 @@ pub mod mock {
         config_written_while_started = "caer_mock_config_written_while_started": fn(module: i8, param: u8) -> i32;
         /// The DVS size `caerDavisInfoGet` reports (240x180 until set; `set` restores it).
         sensor = "caer_mock_sensor": fn(width_px: i16, height_px: i16);
+        /// The camera's family: `CAER_DEVICE_DAVIS` (until set; `set` restores it) or
+        /// `CAER_DEVICE_DVXPLORER`, which has its own info call and modules, no APS.
+        device = "caer_mock_device": fn(device_type: u16);
+        /// What makes the camera on USB unusable (`UNUSABLE_*`; 0 until set).
+        unusable = "caer_mock_unusable": fn(why: i32);
         /// What the device refuses from now on: a sum of the `FAIL_*` flags.
         fail = "caer_mock_fail": fn(what: i32);
         /// After this many containers the scene goes dark for this long (us of device

@@ -18,14 +18,17 @@ use std::time::{Duration, Instant};
 
 use faithd::clock::DaemonClock;
 use faithd::shutdown::Shutdown;
+use faithd::source::CaerDevice;
 use faithd::source::SourceIo;
 use faithd::source::caer::{
-    CameraError, Ended, NO_CAMERA, RetryTiming, SensorSize, SessionError, run, serve_device,
+    Camera, CameraError, Ended, RetryTiming, SensorSize, SessionError, Setting, no_camera, run,
+    serve_device,
 };
 use faithd_core::event::{Event, Polarity};
 use libcaer_sys::mock::{
     COUNT_CLOSES, COUNT_SHUTDOWN_CALLS, COUNT_STARTS, COUNT_STOPS, FAIL_DATA_START,
-    FAIL_DEFAULT_CONFIG, FAIL_INFO, LIBRARY, Script,
+    FAIL_DEFAULT_CONFIG, FAIL_INFO, LIBRARY, QUEUED_AFTER_UNPLUG, Script, UNUSABLE_BUSY,
+    UNUSABLE_PERMISSION, UNUSABLE_VERSION,
 };
 use libcaer_sys::{
     Container, FRAME_EVENT, IMU6_EVENT, INLINE_IN_LIBCAER, Libcaer, POLARITY_EVENT, SPECIAL_EVENT,
@@ -35,6 +38,15 @@ const DVS240: SensorSize = SensorSize {
     width_px: 240,
     height_px: 180,
 };
+
+/// The DAVIS240 configured, with these settings.
+fn davis240(settings: &[Setting]) -> Camera {
+    Camera {
+        device: CaerDevice::Davis240,
+        settings: settings.to_vec(),
+        expected: DVS240,
+    }
+}
 
 /// A camera thread's side of a run nobody stops: the test ends it through the
 /// pipeline's end of the channel, or through the mock's script.
@@ -77,7 +89,12 @@ fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
     script.set(50, 0);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let clock = DaemonClock::start();
-    let ended = serve_device(&lib, &[(5, 1, 24575), (5, 3, 42)], DVS240, &io(clock, &tx)).unwrap();
+    let ended = serve_device(
+        &lib,
+        &davis240(&[(5, 1, 24575), (5, 3, 42)]),
+        &io(clock, &tx),
+    )
+    .unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     assert_eq!(script.config_value(5, 3), 42);
     assert_eq!(
@@ -86,7 +103,11 @@ fn a_session_streams_valid_events_applies_settings_and_reports_the_loss() {
         "non-blocking: the camera thread waits between reads where it hears a stop"
     );
     let batches: Vec<_> = rx.try_iter().collect();
-    assert_eq!(batches.len(), 50);
+    assert_eq!(
+        batches.len(),
+        50 + QUEUED_AFTER_UNPLUG,
+        "the containers queued when it went away are delivered too"
+    );
     for (k, b) in batches.iter().enumerate() {
         assert_eq!(b.len(), 180, "the invalid event is skipped");
         assert!(
@@ -113,8 +134,7 @@ fn the_source_reopens_the_camera_when_it_returns_and_stops_with_the_pipeline() {
     let source = std::thread::spawn(move || {
         run(
             &lib,
-            Vec::new(),
-            DVS240,
+            &davis240(&[]),
             &io(DaemonClock::start(), &tx),
             retry_ms(100),
         )
@@ -149,12 +169,13 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
         width_px: 346,
         height_px: 260,
     };
-    let mismatch = CameraError::SizeMismatch {
-        camera: davis346,
-        configured: DVS240,
+    let mismatch = CameraError::OtherCamera {
+        found: "DAVIS346",
+        size: davis346,
+        configured: CaerDevice::Davis240,
     };
     assert_eq!(
-        serve_device(&lib, &[], DVS240, &io(clock, &tx)),
+        serve_device(&lib, &davis240(&[]), &io(clock, &tx)),
         Err(SessionError::Refused(mismatch.clone()))
     );
     assert!(
@@ -167,13 +188,7 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
     let (done_tx, done_rx) = std::sync::mpsc::channel();
     let source_lib = Libcaer::load(Some(LIBRARY)).unwrap();
     std::thread::spawn(move || {
-        let result = run(
-            &source_lib,
-            Vec::new(),
-            DVS240,
-            &io(clock, &tx),
-            retry_ms(100),
-        );
+        let result = run(&source_lib, &davis240(&[]), &io(clock, &tx), retry_ms(100));
         let _ = done_tx.send(result);
     });
     let result = done_rx
@@ -184,17 +199,25 @@ fn a_camera_of_another_size_is_refused_for_good_with_what_to_change() {
     assert!(rx.try_recv().is_err());
     assert_eq!(
         mismatch.to_string(),
-        "camera is 346x260 px but pipeline.camera is 240x180 px: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera, or connect the DVS240"
+        "camera is a DAVIS346 (346x260 px) but source.device is \"davis240\": set source.device for this camera (\"davis240\", \"davis346\" or \"dvxplorer\") and pipeline.camera for its size"
     );
     // The same camera configured as what it is streams.
     script.set(5, 0);
     script.sensor(346, 260);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     assert_eq!(
-        serve_device(&lib, &[], davis346, &io(clock, &tx)),
+        serve_device(
+            &lib,
+            &Camera {
+                device: CaerDevice::Davis346,
+                settings: Vec::new(),
+                expected: davis346
+            },
+            &io(clock, &tx)
+        ),
         Ok(Ended::DeviceLost)
     );
-    assert_eq!(rx.try_iter().count(), 5);
+    assert_eq!(rx.try_iter().count(), 5 + QUEUED_AFTER_UNPLUG);
 }
 
 /// A device clock 2 % slow and 0.2 to 3 ms of USB latency per container, for 2.5 s:
@@ -215,10 +238,10 @@ fn event_times_follow_a_drifting_device_clock_through_usb_latency() {
     let after_us = script.now_us();
     let zero_us = (before_us + after_us) / 2;
     assert!(after_us - before_us < 200);
-    let ended = serve_device(&lib, &[], DVS240, &io(clock, &tx)).unwrap();
+    let ended = serve_device(&lib, &davis240(&[]), &io(clock, &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     let batches: Vec<_> = rx.try_iter().collect();
-    assert_eq!(batches.len(), 2_500, "none dropped");
+    assert_eq!(batches.len(), 2_500 + QUEUED_AFTER_UNPLUG, "none dropped");
     let mut previous_us = i64::MIN;
     let mut worst_us = 0;
     for (k, batch) in batches.iter().enumerate() {
@@ -258,7 +281,7 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     let (lib, script) = mock();
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let session = |settings: &[(i8, u8, u32)]| {
-        serve_device(&lib, settings, DVS240, &io(DaemonClock::start(), &tx))
+        serve_device(&lib, &davis240(settings), &io(DaemonClock::start(), &tx))
     };
 
     // A DAVIS346 where a DVS240 is configured.
@@ -266,7 +289,7 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     script.sensor(346, 260);
     assert!(matches!(
         session(&[]),
-        Err(SessionError::Refused(CameraError::SizeMismatch { .. }))
+        Err(SessionError::Refused(CameraError::OtherCamera { .. }))
     ));
     assert_eq!(lifecycle(&script), (0, 0, 1), "size mismatch");
 
@@ -313,9 +336,16 @@ fn every_refusal_path_closes_the_device_and_stops_only_what_was_started() {
     // The camera goes away at once, then no camera to open: nothing to close.
     script.set(0, 3);
     assert_eq!(session(&[]), Ok(Ended::DeviceLost));
-    assert_eq!(session(&[]), Err(SessionError::Retry(NO_CAMERA.into())));
+    assert_eq!(
+        session(&[]),
+        Err(SessionError::Retry(no_camera(CaerDevice::Davis240)))
+    );
     assert_eq!(lifecycle(&script), (1, 1, 1), "no camera");
-    assert!(rx.try_recv().is_err(), "no events from any of them");
+    assert_eq!(
+        rx.try_iter().count(),
+        QUEUED_AFTER_UNPLUG,
+        "no events from any of them but the lost camera's queued ones"
+    );
 }
 
 /// The guard the refusal test stands on: the mock really aborts (as libcaer really
@@ -369,7 +399,7 @@ fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
     script.set(50, 0);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let settings = [(5, 1, 24575), (5, 2, 16399)];
-    let ended = serve_device(&lib, &settings, DVS240, &io(DaemonClock::start(), &tx)).unwrap();
+    let ended = serve_device(&lib, &davis240(&settings), &io(DaemonClock::start(), &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     for (module, param, value) in settings {
         assert_eq!(script.config_value(module, param), i64::from(value));
@@ -387,7 +417,7 @@ fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
         );
     }
     let served = |t: i16| script.packets_served(i32::from(t));
-    assert_eq!(served(POLARITY_EVENT), 50);
+    assert_eq!(served(POLARITY_EVENT), 50 + QUEUED_AFTER_UNPLUG as i32);
     // Four containers were in flight when the APS and the IMU went off.
     assert!(
         (1..=2).contains(&served(FRAME_EVENT)),
@@ -404,8 +434,16 @@ fn settings_and_the_aps_and_imu_off_are_written_after_data_start() {
         "the timestamp reset and an input edge"
     );
     let batches: Vec<_> = rx.try_iter().collect();
-    assert_eq!(batches.len(), 50);
-    assert!(batches.iter().all(|b| b.len() == 180));
+    assert_eq!(batches.len(), 50 + QUEUED_AFTER_UNPLUG);
+    assert_eq!(
+        script.config_value(-3, 1),
+        1_000,
+        "1 ms containers asked for (libcaer's default is 10 ms)"
+    );
+    assert!(
+        batches.iter().all(|b| b.len() == 180),
+        "one millisecond (one edge column) a container"
+    );
 }
 
 /// A setting libcaer refuses is a configuration error that names the entry: the
@@ -421,8 +459,7 @@ fn a_refused_setting_stops_the_source_at_once_naming_the_entry() {
         let lib = Libcaer::load(Some(LIBRARY)).unwrap();
         let result = run(
             &lib,
-            vec![(5, 1, 24575), (5, 200, 1)],
-            DVS240,
+            &davis240(&[(5, 1, 24575), (5, 200, 1)]),
             &io(DaemonClock::start(), &tx),
             retry_ms(100),
         );
@@ -500,11 +537,11 @@ fn a_dark_scene_is_not_a_lost_camera() {
     script.quiet(5, 2_500_000);
     let (tx, rx) = std::sync::mpsc::sync_channel(1000);
     let started = Instant::now();
-    let ended = serve_device(&lib, &[], DVS240, &io(DaemonClock::start(), &tx)).unwrap();
+    let ended = serve_device(&lib, &davis240(&[]), &io(DaemonClock::start(), &tx)).unwrap();
     assert_eq!(ended, Ended::DeviceLost);
     assert!(started.elapsed() >= Duration::from_millis(2_500));
     let batches: Vec<_> = rx.try_iter().collect();
-    assert_eq!(batches.len(), 10);
+    assert_eq!(batches.len(), 10 + QUEUED_AFTER_UNPLUG);
     let gap_us = batches[5][0].t_us - batches[4][0].t_us;
     assert!(
         (2_400_000..2_700_000).contains(&gap_us),
@@ -635,9 +672,10 @@ fn containers_are_laid_out_and_read_as_libcaers() {
     assert!(events.is_empty());
 }
 
-/// The device functions libcaer 3.3.9's shared library exports (`nm -D`), of which
-/// faithd loads some; the container functions are not among them.
-const LIBCAER_3_DEVICE_EXPORTS: [&str; 12] = [
+/// The device functions libcaer 3.3.9's shared library exports (`nm -D`; 3.3.15's
+/// too), of which faithd loads some; the container functions are not among them.
+const LIBCAER_3_DEVICE_EXPORTS: [&str; 13] = [
+    "caerDVXplorerInfoGet",
     "caerDavisInfoGet",
     "caerDeviceClose",
     "caerDeviceConfigGet",
@@ -677,6 +715,9 @@ fn faithd_loads_only_what_libcaer_exports_and_the_mock_exports_no_inline_functio
 }
 
 /// `faithd run` on a camera that refuses a setting: exit 2, the key and the entry.
+/// The background-activity filter is an address every DAVIS has in libcaer's header,
+/// but this camera lacks the filter (`dvsHasBackgroundActivityFilter` false), so
+/// libcaer refuses it only when it is written.
 #[test]
 fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
     use common::autopilot::{Controls, MockAutopilot};
@@ -687,7 +728,7 @@ fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
         .service_toml(&common::caer_mock_library(), "enabled = false")
         .replace(
             "kind = \"caer\"\n",
-            "kind = \"caer\"\ncaer_settings = [[5, 1, 24575], [5, 2, 16399], [9, 7, 1]]\n",
+            "kind = \"caer\"\ncaer_settings = [[5, 1, 24575], [5, 2, 16399], [1, 31, 1]]\n",
         );
     std::fs::write(&config, toml).unwrap();
     let output = crate::common::faithd()
@@ -699,7 +740,7 @@ fn faithd_run_refuses_a_setting_the_camera_does_not_take_naming_it() {
     let text = String::from_utf8_lossy(&output.stderr);
     assert_eq!(output.status.code(), Some(2), "{text}");
     assert!(
-        text.contains("`source.caer_settings`: entry [2] = [9, 7, 1] refused by libcaer"),
+        text.contains("`source.caer_settings`: entry [2] = [1, 31, 1] refused by libcaer"),
         "{text}"
     );
 }
@@ -721,15 +762,24 @@ fn faithd_run_until_sigterm(
     env: &[(&str, &str)],
     ready: impl Fn(&str) -> bool,
 ) -> Sigtermed {
+    faithd_run_until_sigterm_with(tag, env, "", ready)
+}
+
+/// [`faithd_run_until_sigterm`] with more `[source]` lines.
+fn faithd_run_until_sigterm_with(
+    tag: &str,
+    env: &[(&str, &str)],
+    source: &str,
+    ready: impl Fn(&str) -> bool,
+) -> Sigtermed {
     use common::autopilot::{Controls, MockAutopilot};
     let mock = MockAutopilot::start(std::sync::Arc::new(Controls::default()));
     let dir = common::TempDir::new(tag);
     let config = dir.0.join("faithd.toml");
-    std::fs::write(
-        &config,
-        mock.service_toml(&common::caer_mock_library(), "enabled = false"),
-    )
-    .unwrap();
+    let toml = mock
+        .service_toml(&common::caer_mock_library(), "enabled = false")
+        .replace("kind = \"caer\"\n", &format!("kind = \"caer\"\n{source}"));
+    std::fs::write(&config, toml).unwrap();
     let (log, calls) = (dir.0.join("faithd.log"), dir.0.join("calls.log"));
     let mut child = crate::common::faithd()
         .args(["run", "--config"])
@@ -785,7 +835,7 @@ fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
             ("CAER_MOCK_DISCONNECT_AFTER", "0"),
             ("CAER_MOCK_FAILED_OPENS", "1000000"),
         ],
-        |t| t.matches(NO_CAMERA).count() >= 2,
+        |t| t.matches(&no_camera(CaerDevice::Davis240)).count() >= 2,
     );
     let text = &run.journal;
     assert_eq!(run.status.code(), Some(0), "{text}");
@@ -798,7 +848,7 @@ fn faithd_run_without_a_camera_says_so_and_stops_cleanly() {
     assert_eq!(
         run.calls
             .iter()
-            .filter(|c| *c != "Open")
+            .filter(|c| *c != "Open" && *c != "Discover")
             .collect::<Vec<_>>(),
         ["DataStart", "DataStop", "Close"],
         "{:?}",
@@ -850,8 +900,7 @@ fn stop_when(
         batches: tx,
         stop: shutdown.handle(),
     };
-    let source =
-        std::thread::spawn(move || run(&lib, Vec::new(), DVS240, &io, RetryTiming::DEFAULT));
+    let source = std::thread::spawn(move || run(&lib, &davis240(&[]), &io, RetryTiming::DEFAULT));
     assert!(
         common::poll_until(Duration::from_secs(5), || reached(&rx)),
         "the camera never reached the state under test"
@@ -919,4 +968,239 @@ fn a_stop_while_retrying_without_a_camera_cuts_the_wait_short() {
     assert_eq!(ended, Ok(()));
     assert!(took < STOP_HEARD_WITHIN, "{took:?}");
     assert_eq!(lifecycle(&script), (1, 1, 1));
+}
+
+/// When no camera opens, faithd says which of the causes libcaer's discovery tells
+/// apart it is, and what fixes it: none on USB, no permission, firmware too old, or
+/// claimed by another program (discovery opens without claiming, so it passes).
+#[test]
+fn a_camera_that_does_not_open_is_explained_by_its_cause_and_its_fix() {
+    let _device = device();
+    let (lib, script) = mock();
+    let (tx, _rx) = std::sync::mpsc::sync_channel(1000);
+    let session = || serve_device(&lib, &davis240(&[]), &io(DaemonClock::start(), &tx));
+    let cases = [
+        (UNUSABLE_PERMISSION, "a DAVIS240 is on USB (bus 1, address 5) but could not be opened: no permission on its device node (install the udev rule: docs/camera.md; then unplug and replug it)".to_string()),
+        (UNUSABLE_VERSION, "a DAVIS240 is on USB (bus 1, address 5) but its firmware (3) or logic (17) is not the version this libcaer requires: update the camera's firmware with iniVation's DV software (docs/camera.md)".to_string()),
+        (UNUSABLE_BUSY, "a DAVIS240 is on USB (bus 1, address 5) but libcaer could not claim it: another program has it open (DV, or a second faithd: `fuser -v /dev/bus/usb/001/005`)".to_string()),
+    ];
+    for (why, said) in cases {
+        script.set(50, 0);
+        script.unusable(why);
+        assert_eq!(session(), Err(SessionError::Retry(said)));
+        assert_eq!(lifecycle(&script), (0, 0, 0), "nothing opened");
+    }
+    // A DVXplorer where a DAVIS240 is configured: no DAVIS on USB.
+    script.set(50, 0);
+    script.device(libcaer_sys::CAER_DEVICE_DVXPLORER);
+    assert_eq!(
+        session(),
+        Err(SessionError::Retry(no_camera(CaerDevice::Davis240)))
+    );
+    assert_eq!(
+        no_camera(CaerDevice::Davis240),
+        "no DAVIS240 on USB (source.device = \"davis240\"): plug it in; `lsusb -d 152a:` lists iniVation's cameras"
+    );
+}
+
+/// A DVXplorer (640 x 480 and the Lite's 320 x 240) through its own info call and
+/// modules: it streams with the IMU off after DataStart (it has no APS), takes its
+/// own bias module and refuses a DAVIS bias; a DAVIS346 configured as a DVXplorer
+/// is refused naming source.device.
+#[test]
+fn a_dvxplorer_streams_through_its_own_info_and_modules() {
+    let _device = device();
+    let (lib, script) = mock();
+    let (tx, rx) = std::sync::mpsc::sync_channel(1000);
+    let dvxplorer = |w: u16, h: u16, settings: &[Setting]| Camera {
+        device: CaerDevice::Dvxplorer,
+        settings: settings.to_vec(),
+        expected: SensorSize {
+            width_px: w,
+            height_px: h,
+        },
+    };
+    for (w, h) in [(640_u16, 480_u16), (320, 240)] {
+        script.set(20, 0);
+        script.device(libcaer_sys::CAER_DEVICE_DVXPLORER);
+        script.sensor(w as i16, h as i16);
+        let bias_simple_high = (23, 20, 3);
+        let ended = serve_device(
+            &lib,
+            &dvxplorer(w, h, &[bias_simple_high]),
+            &io(DaemonClock::start(), &tx),
+        );
+        assert_eq!(ended, Ok(Ended::DeviceLost), "{w}x{h}");
+        assert_eq!(script.config_value(23, 20), 3);
+        for param in [2, 3, 4] {
+            assert_eq!(script.config_written_while_started(3, param), 1);
+            assert_eq!(script.config_value(3, param), 0, "IMU off");
+        }
+        assert_eq!(script.config_value(2, 4), -1, "no APS to turn off");
+        let batches: Vec<_> = rx.try_iter().collect();
+        assert_eq!(batches.len(), 20 + QUEUED_AFTER_UNPLUG);
+        assert!(batches.iter().flatten().all(|e| e.x_px < w && e.y_px < h));
+    }
+    script.set(20, 0);
+    script.device(libcaer_sys::CAER_DEVICE_DVXPLORER);
+    script.sensor(640, 480);
+    assert_eq!(
+        serve_device(
+            &lib,
+            &dvxplorer(640, 480, &[(5, 1, 24575)]),
+            &io(DaemonClock::start(), &tx)
+        ),
+        Err(SessionError::Refused(CameraError::SettingRefused {
+            index: 0,
+            setting: (5, 1, 24575)
+        }))
+    );
+    script.set(20, 0);
+    script.sensor(346, 260);
+    assert_eq!(
+        serve_device(
+            &lib,
+            &Camera {
+                device: CaerDevice::Davis240,
+                settings: Vec::new(),
+                expected: DVS240
+            },
+            &io(DaemonClock::start(), &tx)
+        ),
+        Err(SessionError::Refused(CameraError::OtherCamera {
+            found: "DAVIS346",
+            size: SensorSize {
+                width_px: 346,
+                height_px: 260
+            },
+            configured: CaerDevice::Davis240
+        }))
+    );
+}
+
+/// Left to libcaer's default container interval, the mock packs 10 ms of events a
+/// container, as libcaer 3.3.15 was measured to (about 100 containers a second).
+#[test]
+fn the_mock_packs_ten_millisecond_containers_unless_told_otherwise() {
+    let _device = device();
+    let (lib, script) = mock();
+    script.set(1_000, 0);
+    // SAFETY: plain calls on a handle this test opens, starts, stops and closes.
+    unsafe {
+        let mut h = (lib.caerDeviceOpen)(1, libcaer_sys::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null());
+        assert!(!h.is_null());
+        assert!((lib.caerDeviceDataStart)(
+            h,
+            None,
+            None,
+            std::ptr::null_mut(),
+            None,
+            std::ptr::null_mut()
+        ));
+        let mut spans_us = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(2);
+        while spans_us.len() < 5 && Instant::now() < deadline {
+            let Some(c) = Container::from_raw((lib.caerDeviceDataGet)(h)) else {
+                std::thread::sleep(Duration::from_millis(1));
+                continue;
+            };
+            let mut events = Vec::new();
+            for p in c.packets() {
+                libcaer_sys::read_polarity_packet(p, &mut events);
+            }
+            if let (Some(first), Some(last)) = (events.first(), events.last()) {
+                spans_us.push((events.len(), last.t_us - first.t_us));
+            }
+        }
+        assert!((lib.caerDeviceDataStop)(h));
+        assert!((lib.caerDeviceClose)(&mut h));
+        assert_eq!(spans_us.len(), 5);
+        assert!(
+            spans_us
+                .iter()
+                .all(|&(n, span)| n == 1_800 && span == 9_179),
+            "{spans_us:?}"
+        );
+    }
+}
+
+/// The camera's reopen timing is configured: the journal's retry waits start at
+/// source.reopen_min_us and double up to source.reopen_max_us.
+#[test]
+fn faithd_run_reopens_the_camera_on_the_configured_timing() {
+    let run = faithd_run_until_sigterm_with(
+        "caer-reopen",
+        &[
+            ("CAER_MOCK_DISCONNECT_AFTER", "0"),
+            ("CAER_MOCK_FAILED_OPENS", "1000000"),
+        ],
+        "reopen_min_us = 20000\nreopen_max_us = 80000\n",
+        |t| t.matches("retry in 80 ms").count() >= 2,
+    );
+    let text = &run.journal;
+    assert_eq!(run.status.code(), Some(0), "{text}");
+    let waits: Vec<&str> = text
+        .lines()
+        .filter_map(|l| {
+            l.split(" in ")
+                .last()
+                .filter(|_| l.contains("retry in ") || l.contains("reopening in "))
+        })
+        .take(4)
+        .collect();
+    assert_eq!(waits, ["20 ms", "40 ms", "80 ms", "80 ms"], "{text}");
+}
+
+/// `faithd check-config` refuses a libcaer_path that faithd run would refuse: no
+/// such file, a directory, a file that is not a library; it takes the mock (a
+/// library exporting every function faithd loads).
+#[test]
+fn check_config_refuses_a_libcaer_path_that_is_not_a_library() {
+    let dir = common::TempDir::new("caer-check");
+    let not_a_library = dir.0.join("libcaer.so.3");
+    std::fs::write(&not_a_library, "not ELF").unwrap();
+    let missing = dir.0.join("missing.so");
+    let cases = [
+        (missing.display().to_string(), "No such file"),
+        (dir.0.display().to_string(), "is a directory"),
+        (
+            not_a_library.display().to_string(),
+            "is not a shared library for this machine",
+        ),
+    ];
+    let config = dir.0.join("faithd.toml");
+    for (path, why) in cases {
+        std::fs::write(
+            &config,
+            format!("[source]\nkind = \"caer\"\nlibcaer_path = \"{path}\"\n"),
+        )
+        .unwrap();
+        let out = common::faithd()
+            .args(["check-config"])
+            .arg(&config)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{path}: {text}");
+        assert!(
+            text.contains("`source.libcaer_path`") && text.contains(why),
+            "{path}: {text}"
+        );
+    }
+    let mock = common::caer_mock_library();
+    std::fs::write(
+        &config,
+        format!("[source]\nkind = \"caer\"\nlibcaer_path = \"{mock}\"\n"),
+    )
+    .unwrap();
+    let out = common::faithd()
+        .args(["check-config"])
+        .arg(&config)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

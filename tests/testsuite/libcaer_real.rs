@@ -26,8 +26,9 @@ use std::time::Duration;
 
 use faithd::clock::DaemonClock;
 use faithd::shutdown::Shutdown;
+use faithd::source::CaerDevice;
 use faithd::source::SourceIo;
-use faithd::source::caer::{Ended, NO_CAMERA, SensorSize, SessionError, serve_device};
+use faithd::source::caer::{Camera, Ended, SensorSize, SessionError, no_camera, serve_device};
 use libcaer_sys::{Container, INLINE_IN_LIBCAER, LOADED_SYMBOLS, Libcaer};
 
 /// One line on the real standard error (the harness captures `eprintln!`).
@@ -75,14 +76,17 @@ fn a_session_on_the_real_library_without_a_camera_is_a_clean_no_camera() {
     let lib = Libcaer::load(Some(&path)).unwrap();
     let (tx, rx) = std::sync::mpsc::sync_channel(1);
     drop(rx);
-    let dvs240 = SensorSize {
-        width_px: 240,
-        height_px: 180,
+    let dvs240 = Camera {
+        device: CaerDevice::Davis240,
+        settings: Vec::new(),
+        expected: SensorSize {
+            width_px: 240,
+            height_px: 180,
+        },
     };
     let result = serve_device(
         &lib,
-        &[],
-        dvs240,
+        &dvs240,
         &SourceIo {
             clock: DaemonClock::start(),
             batches: tx.clone(),
@@ -90,7 +94,7 @@ fn a_session_on_the_real_library_without_a_camera_is_a_clean_no_camera() {
         },
     );
     match result {
-        Err(SessionError::Retry(why)) => assert_eq!(why, NO_CAMERA),
+        Err(SessionError::Retry(why)) => assert_eq!(why, no_camera(CaerDevice::Davis240)),
         Ok(Ended::Receiver) => {
             skipped("a camera is plugged in: it streamed, no 'no camera' to check")
         }
@@ -117,7 +121,8 @@ fn faithd_run_loads_the_real_library_and_reports_no_camera() {
         .unwrap();
     let said = common::poll_until(Duration::from_secs(10), || {
         std::fs::read_to_string(&log).is_ok_and(|t| {
-            t.matches(NO_CAMERA).count() >= 2 || t.contains("camera open: streaming")
+            t.matches(&no_camera(CaerDevice::Davis240)).count() >= 2
+                || t.contains("camera open: streaming")
         })
     });
     let signalled = std::time::Instant::now();

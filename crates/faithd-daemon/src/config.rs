@@ -111,6 +111,7 @@ impl FaithdConfig {
         validate_safety(self)?;
         self.daemon.validate()?;
         self.source.validate()?;
+        validate_camera_size(self)?;
         self.record.validate()?;
         self.ground.validate()?;
         check(
@@ -197,6 +198,33 @@ fn moved_key(key: &str, reason: &str) -> Option<&'static str> {
 /// What one section cannot check alone: what the route to the autopilot asks of the
 /// switch and the roll, the gate's staleness against the daemon's period, and the
 /// roll channel against the switch.
+/// `pipeline.camera` must be a size the configured camera comes in: the camera
+/// thread would refuse it at the first open, in flight, otherwise.
+fn validate_camera_size(c: &FaithdConfig) -> Result<(), Invalid> {
+    let SourceConfig::Caer(caer) = &c.source else {
+        return Ok(());
+    };
+    let cam = &c.pipeline.camera;
+    let sizes = caer.device.sizes();
+    check(
+        sizes
+            .iter()
+            .any(|s| (s.width_px, s.height_px) == (cam.width_px, cam.height_px)),
+        "pipeline.camera.width_px",
+        || {
+            let sizes: Vec<String> = sizes.iter().map(|s| s.to_string()).collect();
+            format!(
+                "is {}x{} px, but a {} (source.device = \"{}\") is {}: set pipeline.camera (and its intrinsics) for it",
+                cam.width_px,
+                cam.height_px,
+                caer.device.name(),
+                caer.device.key(),
+                sizes.join(" or ")
+            )
+        },
+    )
+}
+
 fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
     c.gate.validate()?;
     c.manoeuvre.validate()?;
@@ -222,6 +250,28 @@ fn validate_safety(c: &FaithdConfig) -> Result<(), Invalid> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_camera_is_taken_at_the_sizes_it_comes_in() {
+        let at = |device: &str, w: u16, h: u16| {
+            FaithdConfig::parse(&format!(
+                "[pipeline.camera]\nwidth_px = {w}\nheight_px = {h}\ncx_px = {}\ncy_px = {}\n[source]\nkind = \"caer\"\ndevice = \"{device}\"\n",
+                f64::from(w) / 2.0,
+                f64::from(h) / 2.0
+            ))
+        };
+        assert!(at("davis240", 240, 180).is_ok());
+        assert!(at("davis346", 346, 260).is_ok());
+        assert!(at("dvxplorer", 640, 480).is_ok());
+        assert!(at("dvxplorer", 320, 240).is_ok());
+        let err = at("davis346", 640, 480).unwrap_err().to_string();
+        assert!(
+            err.contains("a DAVIS346 (source.device = \"davis346\") is 346x260 px"),
+            "{err}"
+        );
+        let err = at("davis640", 640, 480).unwrap_err().to_string();
+        assert!(err.contains("unknown variant `davis640`"), "{err}");
+    }
 
     #[test]
     fn empty_file_is_all_defaults() {
@@ -363,6 +413,22 @@ mod tests {
                 "source.repeat_us",
             ),
             ("[source]\nkind = \"camera\"\n", "source.kind"),
+            (
+                "[source]\nkind = \"caer\"\ndevice = \"dvxplorer\"\n",
+                "pipeline.camera.width_px",
+            ),
+            (
+                "[source]\nkind = \"caer\"\nreopen_min_us = 10\n",
+                "source.reopen_min_us",
+            ),
+            (
+                "[source]\nkind = \"caer\"\nreopen_max_us = 1000\n",
+                "source.reopen_max_us",
+            ),
+            (
+                "[source]\nkind = \"caer\"\ncaer_settings = [[23, 20, 2]]\n",
+                "source.caer_settings[0]",
+            ),
             (
                 "[command]\nconfirm_within_us = 5000000\n",
                 "command.confirm_within_us",

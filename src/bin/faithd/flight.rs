@@ -208,7 +208,12 @@ pub fn run(args: &RunArgs) -> Result<(), Failure> {
 
 /// `faithd check-config`: `ok`, or the key and the reason it is refused.
 pub fn check_config(path: &Path) -> Result<(), Failure> {
-    FaithdConfig::load(path).map_err(Failure::refused)?;
+    let config = FaithdConfig::load(path).map_err(Failure::refused)?;
+    let note = faithd::source::check_library(&config.source)
+        .map_err(|e| Failure::refused(format!("{}: {e}", path.display())))?;
+    if let Some(note) = note {
+        eprintln!("{note}");
+    }
     println!("{}: ok", path.display());
     Ok(())
 }

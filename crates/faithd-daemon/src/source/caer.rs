@@ -41,33 +41,12 @@ use libcaer_sys::{self as caer, Container, Libcaer};
 use crate::clock::DaemonClock;
 use crate::shutdown::Stop;
 use crate::source::SourceIo;
+use crate::source::caer_device::{CONTAINER_INTERVAL_US, CaerDevice, chip_name};
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
 use faithd_core::event::{Event, Polarity};
 
 /// One libcaer configuration write: (module, parameter, value).
 pub type Setting = (i8, u8, u32);
-
-/// What faithd writes itself after `caerDeviceDataStart`, which turned them on: the
-/// APS (frames) and the IMU's three run flags. Their packets would take USB bandwidth
-/// and the camera thread's time for nothing, as faithd reads only polarity events.
-pub const OWN_SETTINGS: [Setting; 4] = [
-    (caer::DAVIS_CONFIG_APS, caer::DAVIS_CONFIG_APS_RUN, 0),
-    (
-        caer::DAVIS_CONFIG_IMU,
-        caer::DAVIS_CONFIG_IMU_RUN_ACCELEROMETER,
-        0,
-    ),
-    (
-        caer::DAVIS_CONFIG_IMU,
-        caer::DAVIS_CONFIG_IMU_RUN_GYROSCOPE,
-        0,
-    ),
-    (
-        caer::DAVIS_CONFIG_IMU,
-        caer::DAVIS_CONFIG_IMU_RUN_TEMPERATURE,
-        0,
-    ),
-];
 
 unsafe extern "C" fn on_shutdown(ptr: *mut std::ffi::c_void) {
     // SAFETY: `ptr` is the `AtomicBool` a [`Device`] owns and frees only after
@@ -89,22 +68,39 @@ impl std::fmt::Display for SensorSize {
     }
 }
 
+/// The camera faithd is to stream from: which one, the settings to write once it
+/// streams, and the DVS size the pipeline is configured for.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Camera {
+    pub device: CaerDevice,
+    pub settings: Vec<Setting>,
+    pub expected: SensorSize,
+}
+
 /// A camera that cannot be used as configured: reopening it will not help, so the
 /// source stops and the daemon refuses to go on (exit 2, not restarted).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum CameraError {
     #[error(
-        "camera is {camera} but pipeline.camera is {configured}: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera, or connect the DVS240"
+        "camera is a {found} ({size}) but source.device is \"{}\": set source.device for this camera (\"davis240\", \"davis346\" or \"dvxplorer\") and pipeline.camera for its size",
+        configured.key()
+    )]
+    OtherCamera {
+        found: &'static str,
+        size: SensorSize,
+        configured: CaerDevice,
+    },
+    #[error(
+        "camera is {camera} but pipeline.camera is {configured}: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera"
     )]
     SizeMismatch {
         camera: SensorSize,
         configured: SensorSize,
     },
-    /// libcaer refused one of `source.caer_settings`: a (module, parameter) this
-    /// camera does not have, or a value it does not take. Retrying would be refused
-    /// the same way.
+    /// libcaer refused one of `source.caer_settings`: a value this camera does not
+    /// take. Retrying would be refused the same way.
     #[error(
-        "entry [{index}] = [{}, {}, {}] refused by libcaer: this camera has no such (module, parameter) or does not take the value; fix or remove it (addresses in libcaer's devices/davis.h)",
+        "entry [{index}] = [{}, {}, {}] refused by libcaer: this camera does not take the value; fix or remove it (libcaer's devices/davis.h or devices/dvxplorer.h)",
         setting.0, setting.1, setting.2
     )]
     SettingRefused { index: usize, setting: Setting },
@@ -114,6 +110,7 @@ impl CameraError {
     /// The configuration key to change.
     pub fn key(&self) -> &'static str {
         match self {
+            CameraError::OtherCamera { .. } => "source.device",
             CameraError::SizeMismatch { .. } => "pipeline.camera.width_px",
             CameraError::SettingRefused { .. } => "source.caer_settings",
         }
@@ -150,40 +147,41 @@ impl std::fmt::Display for SessionError {
     }
 }
 
-/// What `serve_device` says when libcaer finds no camera to open.
-pub const NO_CAMERA: &str = "no DAVIS camera could be opened (none on USB, or no permission on its device: see the udev rules)";
-
 /// `kind = "caer"`: loads libcaer (the configured file, or the loader's search for
 /// libcaer.so.3) and returns the camera thread's work, or the key to change.
 pub fn prepare(
     config: super::CaerSource,
     camera: faithd_core::camera::CameraIntrinsics,
 ) -> Result<super::SourceFn, super::Refusal> {
-    let path = (!config.libcaer_path.is_empty()).then_some(config.libcaer_path.as_str());
-    let lib = Libcaer::load(path).map_err(|e| super::Refusal {
-        key: "source.libcaer_path",
-        reason: format!(
-            "{e}; install iniVation's libcaer 3 (it is not in Debian: see docs/camera.md) or name its file here"
-        ),
-    })?;
-    tracing::info!(library = %lib.path, "libcaer loaded");
-    let sensor = SensorSize {
-        width_px: camera.width_px,
-        height_px: camera.height_px,
+    let lib = load(&config)?;
+    tracing::info!(library = %lib.path, device = config.device.key(), "libcaer loaded");
+    let retry = config.retry();
+    let camera = Camera {
+        device: config.device,
+        settings: config.caer_settings,
+        expected: SensorSize {
+            width_px: camera.width_px,
+            height_px: camera.height_px,
+        },
     };
     Ok(Box::new(move |io| {
-        run(
-            &lib,
-            config.caer_settings,
-            sensor,
-            &io,
-            RetryTiming::DEFAULT,
-        )
-        .map_err(|e| super::Refusal {
+        run(&lib, &camera, &io, retry).map_err(|e| super::Refusal {
             key: e.key(),
             reason: e.to_string(),
         })
     }))
+}
+
+/// Loads the configured libcaer, or says which key to change and how: what
+/// `faithd run` does first, and what `faithd check-config` checks.
+pub fn load(config: &super::CaerSource) -> Result<Libcaer, super::Refusal> {
+    let path = (!config.libcaer_path.is_empty()).then_some(config.libcaer_path.as_str());
+    Libcaer::load(path).map_err(|e| super::Refusal {
+        key: "source.libcaer_path",
+        reason: format!(
+            "{e}; install iniVation's libcaer 3 (it is not in Debian: see docs/camera.md) or name its file here"
+        ),
+    })
 }
 
 /// How soon a camera that could not be opened is tried again: the first wait, doubled
@@ -212,22 +210,24 @@ const NO_DATA_WAIT: Duration = Duration::from_millis(1);
 /// configuration (`Err`: a configuration error, which no retry mends).
 pub fn run(
     lib: &Libcaer,
-    settings: Vec<Setting>,
-    expected: SensorSize,
+    camera: &Camera,
     io: &SourceIo,
     retry: RetryTiming,
 ) -> Result<(), CameraError> {
     let mut backoff = retry.first;
     loop {
-        match serve_device(lib, &settings, expected, io) {
+        match serve_device(lib, camera, io) {
             Ok(Ended::Stopped) => {
                 tracing::info!("camera stopped and closed");
                 return Ok(());
             }
             Ok(Ended::Receiver) => return Ok(()),
             Ok(Ended::DeviceLost) => {
-                tracing::error!("camera lost: no events until it is back; reopening");
                 backoff = retry.first;
+                tracing::error!(
+                    "camera lost: no events until it is back; reopening in {} ms",
+                    backoff.as_millis()
+                );
             }
             Err(SessionError::Refused(e)) => return Err(e),
             Err(SessionError::Retry(why)) => {
@@ -253,10 +253,10 @@ struct Device<'a> {
 }
 
 impl<'a> Device<'a> {
-    fn open(lib: &'a Libcaer) -> Option<Self> {
+    fn open(lib: &'a Libcaer, device: CaerDevice) -> Option<Self> {
+        let device_type = device.libcaer_type();
         // SAFETY: a plain FFI call; a non-NULL handle is closed exactly once, on drop.
-        let handle =
-            unsafe { (lib.caerDeviceOpen)(1, caer::CAER_DEVICE_DAVIS, 0, 0, std::ptr::null()) };
+        let handle = unsafe { (lib.caerDeviceOpen)(1, device_type, 0, 0, std::ptr::null()) };
         (!handle.is_null()).then(|| Self {
             lib,
             handle,
@@ -291,6 +291,29 @@ impl<'a> Device<'a> {
     fn lost(&self) -> bool {
         self.lost.load(Ordering::SeqCst)
     }
+
+    /// The DVS size and chip identifier from the family's own info call (libcaer 3
+    /// has no generic one), or `None` when libcaer could not tell (all zeros).
+    fn dvs_size_and_chip(&self, device: CaerDevice) -> Option<(SensorSize, i16)> {
+        let ((width_px, height_px), chip_id) = match device {
+            CaerDevice::Davis240 | CaerDevice::Davis346 => {
+                // SAFETY: the handle is open; the struct is returned by value (layout
+                // pinned in libcaer-sys).
+                let info = unsafe { (self.lib.caerDavisInfoGet)(self.handle) };
+                (info.dvs_size_px()?, info.chipID)
+            }
+            CaerDevice::Dvxplorer => {
+                // SAFETY: as above, for the DVXplorer's info.
+                let info = unsafe { (self.lib.caerDVXplorerInfoGet)(self.handle) };
+                (info.dvs_size_px()?, info.chipID)
+            }
+        };
+        let size = SensorSize {
+            width_px,
+            height_px,
+        };
+        Some((size, chip_id))
+    }
 }
 
 impl Drop for Device<'_> {
@@ -307,38 +330,81 @@ impl Drop for Device<'_> {
 
 /// Opens, configures and streams one device session; the device is stopped (when it
 /// was started) and closed before this returns, whatever the reason.
-pub fn serve_device(
-    lib: &Libcaer,
-    settings: &[Setting],
-    expected: SensorSize,
-    io: &SourceIo,
-) -> Result<Ended, SessionError> {
-    let mut device = Device::open(lib).ok_or_else(|| SessionError::Retry(NO_CAMERA.into()))?;
-    check_size(&device, expected)?;
-    start(&mut device, settings)?;
+pub fn serve_device(lib: &Libcaer, camera: &Camera, io: &SourceIo) -> Result<Ended, SessionError> {
+    let Some(mut device) = Device::open(lib, camera.device) else {
+        return Err(SessionError::Retry(why_not_opened(lib, camera.device)));
+    };
+    check_camera(&device, camera)?;
+    start(&mut device, camera)?;
     tracing::info!("camera open: streaming");
     stream(&device, io.clock, &io.batches, &io.stop)
 }
 
-/// Refuses a camera whose DVS size is not the configured one. A size libcaer cannot
-/// report (all zeros: the handle went bad) is worth another try.
-fn check_size(device: &Device<'_>, expected: SensorSize) -> Result<(), SessionError> {
-    // SAFETY: the handle is open; the struct is returned by value (layout pinned in
-    // libcaer-sys).
-    let info = unsafe { (device.lib.caerDavisInfoGet)(device.handle) };
-    let Some((width_px, height_px)) = info.dvs_size_px() else {
+/// What to tell the builder when `caerDeviceOpen` found nothing to open. libcaer's
+/// open fails the same way (NULL) whatever the cause, but its discovery, which
+/// opens each device without claiming it (`usbDeviceFind`, `src/usb_utils.c`),
+/// says whether one is there, whether it could be opened, and whether its
+/// firmware and logic are the ones libcaer requires; one that passes all three
+/// and still does not open could not be claimed: another program holds it.
+pub fn why_not_opened(lib: &Libcaer, device: CaerDevice) -> String {
+    let Some(found) = lib.discover(device.libcaer_type()) else {
+        return "libusb could not list the USB devices (libcaer's discovery failed)".into();
+    };
+    let Some(camera) = found.first() else {
+        return no_camera(device);
+    };
+    let at = format!(
+        "a {} is on USB (bus {}, address {})",
+        chip_name(camera.device_type, camera.chip_id),
+        camera.usb_bus,
+        camera.usb_address
+    );
+    if camera.error_open {
+        format!(
+            "{at} but could not be opened: no permission on its device node (install the udev rule: docs/camera.md; then unplug and replug it)"
+        )
+    } else if camera.error_version {
+        format!(
+            "{at} but its firmware ({}) or logic ({}) is not the version this libcaer requires: update the camera's firmware with iniVation's DV software (docs/camera.md)",
+            camera.firmware_version, camera.logic_version
+        )
+    } else {
+        format!(
+            "{at} but libcaer could not claim it: another program has it open (DV, or a second faithd: `fuser -v /dev/bus/usb/{:03}/{:03}`)",
+            camera.usb_bus, camera.usb_address
+        )
+    }
+}
+
+/// What `serve_device` says when no camera of the configured kind is on USB.
+pub fn no_camera(device: CaerDevice) -> String {
+    format!(
+        "no {} on USB (source.device = \"{}\"): plug it in; `lsusb -d 152a:` lists iniVation's cameras",
+        device.name(),
+        device.key()
+    )
+}
+
+/// Refuses a camera of another kind than configured, or whose DVS size is not the
+/// configured one. A size libcaer cannot report (all zeros: the handle went bad) is
+/// worth another try.
+fn check_camera(device: &Device<'_>, camera: &Camera) -> Result<(), SessionError> {
+    let Some((size, chip_id)) = device.dvs_size_and_chip(camera.device) else {
         return Err(SessionError::Retry(
             "the camera did not report its DVS size".into(),
         ));
     };
-    let camera = SensorSize {
-        width_px,
-        height_px,
-    };
-    if camera != expected {
+    if !camera.device.sizes().contains(&size) {
+        return Err(SessionError::Refused(CameraError::OtherCamera {
+            found: chip_name(camera.device.libcaer_type(), chip_id),
+            size,
+            configured: camera.device,
+        }));
+    }
+    if size != camera.expected {
         return Err(SessionError::Refused(CameraError::SizeMismatch {
-            camera,
-            configured: expected,
+            camera: size,
+            configured: camera.expected,
         }));
     }
     Ok(())
@@ -346,9 +412,9 @@ fn check_size(device: &Device<'_>, expected: SensorSize) -> Result<(), SessionEr
 
 /// Sends libcaer's defaults, asks for non-blocking data exchange, starts the transfer,
 /// then turns off what DataStart turned on and faithd does not use
-/// ([`OWN_SETTINGS`]) and applies the configured settings, in that order, so that
+/// ([`CaerDevice::own_settings`]) and applies the configured settings, in that order, so that
 /// nothing DataStart writes undoes them.
-fn start(device: &mut Device<'_>, settings: &[Setting]) -> Result<(), SessionError> {
+fn start(device: &mut Device<'_>, camera: &Camera) -> Result<(), SessionError> {
     // SAFETY: the handle is open.
     if !unsafe { (device.lib.caerDeviceSendDefaultConfig)(device.handle) } {
         return Err(SessionError::Retry("default configuration refused".into()));
@@ -363,10 +429,19 @@ fn start(device: &mut Device<'_>, settings: &[Setting]) -> Result<(), SessionErr
             "non-blocking data exchange refused".into(),
         ));
     }
+    let interval = (
+        caer::CAER_HOST_CONFIG_PACKETS,
+        caer::CAER_HOST_CONFIG_PACKETS_MAX_CONTAINER_INTERVAL,
+        CONTAINER_INTERVAL_US,
+    );
+    if !device.set(interval) {
+        // Not fatal: events then wait for libcaer's default 10 ms containers.
+        tracing::warn!("camera: a {CONTAINER_INTERVAL_US} us container interval refused");
+    }
     if !device.start() {
         return Err(SessionError::Retry("data transfer could not start".into()));
     }
-    for own in OWN_SETTINGS {
+    for &own in camera.device.own_settings() {
         if !device.set(own) {
             // Not fatal: the packets are discarded either way, at some USB cost.
             tracing::warn!(
@@ -376,7 +451,7 @@ fn start(device: &mut Device<'_>, settings: &[Setting]) -> Result<(), SessionErr
             );
         }
     }
-    for (index, &setting) in settings.iter().enumerate() {
+    for (index, &setting) in camera.settings.iter().enumerate() {
         if !device.set(setting) {
             return Err(SessionError::Refused(CameraError::SettingRefused {
                 index,
@@ -472,7 +547,7 @@ mod tests {
         };
         assert_eq!(
             e.to_string(),
-            "camera is 346x260 px but pipeline.camera is 240x180 px: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera, or connect the DVS240"
+            "camera is 346x260 px but pipeline.camera is 240x180 px: set pipeline.camera.width_px/height_px (and the intrinsics) for this camera"
         );
     }
 

@@ -1,5 +1,5 @@
-//! Where the daemon's events come from (`[source]`): the DVS240 through iniVation's
-//! libcaer with the estimate of its clock against the daemon's, or the simulated
+//! Where the daemon's events come from (`[source]`): an iniVation camera (DAVIS240,
+//! DAVIS346, DVXplorer) through iniVation's libcaer with the estimate of its clock against the daemon's, or the simulated
 //! camera of the bench. Recorded files are read by `faithd_formats::events`.
 //!
 //! The daemon knows no camera: it calls [`start`] with `[source]` and runs what it
@@ -8,6 +8,7 @@
 //! [`SourceConfig`] and one arm of [`start`].
 
 pub mod caer;
+pub mod caer_device;
 pub mod device_clock;
 pub mod sim;
 
@@ -17,6 +18,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::clock::DaemonClock;
 use crate::shutdown::Stop;
+pub use caer_device::CaerDevice;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::event::Event;
 use faithd_core::invalid::{Invalid, check};
@@ -44,7 +46,7 @@ pub struct Refusal {
 }
 
 /// Why `faithd run` refuses a simulated camera without the command-line opt-in.
-pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faithd roll the vehicle at imaginary poles about every 5 s; `faithd run` takes it only with --simulated-camera on its command line (bench and tests, never the service); set source.kind = \"caer\" for the DVS240";
+pub const SIM_SOURCE_REFUSED: &str = "is \"sim\": a simulated camera makes faithd roll the vehicle at imaginary poles about every 5 s; `faithd run` takes it only with --simulated-camera on its command line (bench and tests, never the service); set source.kind = \"caer\" for the camera";
 
 /// Makes the configured source ready to run: loads its library and says which,
 /// or refuses it with the key to change. `simulated_allowed` is `faithd run
@@ -73,11 +75,31 @@ pub fn start(
     }
 }
 
+/// What `faithd check-config` checks beyond the file: that a configured
+/// `source.libcaer_path` is a libcaer 3 faithd can load (a missing file, a directory
+/// and a file that is not a library are refused, as `faithd run` would refuse them).
+/// With no path it looks for the system's libcaer and returns a note when there is
+/// none: the file is fine, but `faithd run` will refuse to start until it is
+/// installed.
+pub fn check_library(config: &SourceConfig) -> Result<Option<String>, Refusal> {
+    let SourceConfig::Caer(caer) = config else {
+        return Ok(None);
+    };
+    match caer::load(caer) {
+        Ok(_) => Ok(None),
+        Err(refusal) if caer.libcaer_path.is_empty() => Ok(Some(format!(
+            "note: `{}`: {}; `faithd run` refuses to start until it is installed",
+            refusal.key, refusal.reason
+        ))),
+        Err(refusal) => Err(refusal),
+    }
+}
+
 /// Where events come from: `[source]`, a `kind` and that kind's own settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum SourceConfig {
-    /// The DVS240/DAVIS240 on USB through libcaer (opened at run time).
+    /// An iniVation camera on USB through libcaer (opened at run time).
     Caer(CaerSource),
     /// Generated approaches to a pole, played in real time: the bench and tests only,
     /// and `faithd run` takes it only with `--simulated-camera`.
@@ -90,61 +112,68 @@ impl Default for SourceConfig {
     }
 }
 
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct CaerSource {
+    /// Which camera: "davis240" (the default), "davis346" or "dvxplorer".
+    pub device: CaerDevice,
     /// Where libcaer is; empty = the system loader's search for libcaer.so.3.
     pub libcaer_path: String,
     /// libcaer settings applied once the camera streams (after libcaer's defaults and
-    /// `caerDeviceDataStart`), as [module, parameter, value] (biases and filters; see
-    /// libcaer's devices/davis.h for the addresses). One that libcaer refuses stops
-    /// the daemon with a configuration error naming it.
+    /// `caerDeviceDataStart`), as [module, parameter, value] (biases, filters, the
+    /// DVXplorer's cropper and event-rate control; the addresses are in libcaer's
+    /// devices/davis.h or devices/dvxplorer.h). An address the camera does not have
+    /// is refused by the checks; a value libcaer refuses stops the daemon with a
+    /// configuration error naming it.
     pub caer_settings: Vec<(i8, u8, u32)>,
+    /// The wait before opening the camera again after a failed open, doubled after
+    /// every failure up to `reopen_max_us`; back to the first after a session ran.
+    pub reopen_min_us: i64,
+    pub reopen_max_us: i64,
 }
 
-/// Settings faithd makes itself, which an entry of `caer_settings` must not undo:
-/// non-blocking data exchange (the camera thread waits on the run's stop between
-/// reads, never inside libcaer, so that it hears a stop) and the APS and IMU off
-/// (faithd discards frames and IMU samples).
-const OWNED_BY_FAITHD: [((i8, u8), &str); 5] = [
-    (
-        (-2, 1),
-        "is CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING, which faithd sets itself (off, so that the camera thread hears a stop)",
-    ),
-    (
-        (2, 4),
-        "is DAVIS_CONFIG_APS_RUN: faithd turns the APS off, as it discards frames",
-    ),
-    (
-        (3, 2),
-        "is DAVIS_CONFIG_IMU_RUN_ACCELEROMETER: faithd turns the IMU off, as it discards IMU samples",
-    ),
-    (
-        (3, 3),
-        "is DAVIS_CONFIG_IMU_RUN_GYROSCOPE: faithd turns the IMU off, as it discards IMU samples",
-    ),
-    (
-        (3, 4),
-        "is DAVIS_CONFIG_IMU_RUN_TEMPERATURE: faithd turns the IMU off, as it discards IMU samples",
-    ),
-];
+impl Default for CaerSource {
+    fn default() -> Self {
+        let retry = caer::RetryTiming::DEFAULT;
+        Self {
+            device: CaerDevice::default(),
+            libcaer_path: String::new(),
+            caer_settings: Vec::new(),
+            reopen_min_us: retry.first.as_micros() as i64,
+            reopen_max_us: retry.longest.as_micros() as i64,
+        }
+    }
+}
 
 impl CaerSource {
-    /// Refuses an entry that would undo what faithd sets itself; what the camera
-    /// takes is for libcaer to say when it opens it.
+    /// Refuses an entry that would undo what faithd sets itself or that names an
+    /// address the camera does not have, and a reopen timing that would spin (under
+    /// 1 ms) or never try again (over a minute).
     pub fn validate(&self) -> Result<(), Invalid> {
-        for (index, &(module, param, value)) in self.caer_settings.iter().enumerate() {
-            if let Some((_, why)) = OWNED_BY_FAITHD
-                .iter()
-                .find(|(address, _)| *address == (module, param))
-            {
-                return Err(Invalid {
-                    key: format!("source.caer_settings[{index}]"),
-                    reason: format!("[{module}, {param}, {value}] {why}; remove the entry"),
-                });
-            }
+        self.device.validate(&self.caer_settings)?;
+        check(
+            (1_000..=60_000_000).contains(&self.reopen_min_us),
+            "source.reopen_min_us",
+            || format!("must be 1 ms to 60 s, got {} us", self.reopen_min_us),
+        )?;
+        check(
+            (self.reopen_min_us..=60_000_000).contains(&self.reopen_max_us),
+            "source.reopen_max_us",
+            || {
+                format!(
+                    "must be reopen_min_us ({} us) to 60 s, got {} us",
+                    self.reopen_min_us, self.reopen_max_us
+                )
+            },
+        )
+    }
+
+    /// The reopen timing, as the camera thread takes it.
+    pub fn retry(&self) -> caer::RetryTiming {
+        caer::RetryTiming {
+            first: std::time::Duration::from_micros(self.reopen_min_us.max(0) as u64),
+            longest: std::time::Duration::from_micros(self.reopen_max_us.max(0) as u64),
         }
-        Ok(())
     }
 }
 
@@ -168,8 +197,8 @@ mod tests {
     fn a_setting_that_undoes_what_faithd_sets_itself_is_refused_by_its_index() {
         let caer = |caer_settings| {
             SourceConfig::Caer(CaerSource {
-                libcaer_path: String::new(),
                 caer_settings,
+                ..CaerSource::default()
             })
         };
         assert_eq!(caer(vec![(5, 1, 24575), (5, 2, 16399)]).validate(), Ok(()));
@@ -203,8 +232,8 @@ mod tests {
             ]
         );
         let caer = CaerSource {
-            libcaer_path: String::new(),
             caer_settings: parsed.caer_settings,
+            ..CaerSource::default()
         };
         assert_eq!(caer.validate(), Ok(()));
     }
