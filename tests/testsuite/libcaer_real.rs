@@ -1,6 +1,8 @@
-//! faithd against iniVation's real libcaer 3.x, built by the person running the tests
-//! from iniVation's public source, beside the project (nothing of libcaer is in this
-//! repository: no code, no binary, no recipe). Two variables point at that build:
+//! faithd against iniVation's real libcaer 3.x: in CI (and with
+//! `LIBCAER_PATH=$(bash tests/peers/libcaer-wheel)`) libcaer 3.3.15 from the
+//! event-camera-drivers wheel on PyPI, unzipped beside the build, or a libcaer the
+//! person running the tests built from iniVation's public source (nothing of libcaer
+//! is in this repository: no code, no binary, no recipe). Two variables point at it:
 //!
 //! - `LIBCAER_PATH`: the shared library (`.../lib/libcaer.so.3`);
 //! - `LIBCAER_INCLUDE`: its headers' directory (the one holding `libcaer/`), for the
@@ -41,9 +43,11 @@ fn real_library() -> Option<String> {
     match std::env::var("LIBCAER_PATH") {
         Ok(path) if !path.is_empty() => Some(path),
         _ => {
-            skipped(
-                "LIBCAER_PATH is not set (a libcaer.so.3 built from iniVation's source: docs/camera.md)",
-            );
+            skipped(if cfg!(all(target_os = "linux", target_arch = "x86_64")) {
+                "LIBCAER_PATH is not set (`bash tests/peers/libcaer-wheel` fetches libcaer 3.3.15: docs/camera.md)"
+            } else {
+                "LIBCAER_PATH is not set, and there is no libcaer wheel for this architecture (x86-64 only): build libcaer for it (docs/camera.md)"
+            });
             None
         }
     }
