@@ -213,6 +213,64 @@ fn the_udev_rule_matches_inav_and_keeps_modemmanager_away() {
     );
 }
 
+/// udev's glob for one attribute value: `?`, `*` (at the end) and `[a-b]` classes.
+fn udev_glob_matches(glob: &str, value: &str) -> bool {
+    let (mut g, mut v) = (glob.chars().peekable(), value.chars());
+    while let Some(c) = g.next() {
+        match c {
+            '*' => return true,
+            '?' if v.next().is_none() => return false,
+            '?' => {}
+            '[' => {
+                let class: String = g.by_ref().take_while(|&c| c != ']').collect();
+                let Some(x) = v.next() else { return false };
+                let bytes = class.as_bytes();
+                let in_class = bytes
+                    .windows(3)
+                    .any(|w| w[1] == b'-' && (w[0]..=w[2]).contains(&(x as u8)))
+                    || class.contains(x);
+                if !in_class {
+                    return false;
+                }
+            }
+            c if v.next() != Some(c) => return false,
+            _ => {}
+        }
+    }
+    v.next().is_none()
+}
+
+/// The camera rule gives the service every camera faithd drives: the DAVIS240 on
+/// its FX2 board (152a:841b), the DAVIS346 on its FX3 board (152a:841a) and the
+/// DVXplorer family (152a:8419), as libcaer opens them (`src/davis.h` lines 9 and 14,
+/// `src/dvxplorer.h` line 25); nothing of another vendor.
+#[test]
+fn the_udev_rule_gives_the_service_each_camera_faithd_drives() {
+    let rules = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/systemd/60-faithd.rules"
+    ))
+    .unwrap();
+    let camera: Vec<&str> = rules
+        .lines()
+        .filter(|l| !l.starts_with('#') && l.contains("ATTR{idVendor}==\"152a\""))
+        .collect();
+    assert_eq!(camera.len(), 1, "{rules}");
+    let product = camera[0]
+        .split("ATTR{idProduct}==\"")
+        .nth(1)
+        .and_then(|r| r.split('"').next())
+        .expect("an idProduct glob");
+    for pid in ["841b", "841a", "8419"] {
+        assert!(
+            udev_glob_matches(product, pid),
+            "{product} does not match {pid}"
+        );
+    }
+    assert!(!udev_glob_matches(product, "8420"));
+    assert!(camera[0].contains("GROUP=\"plugdev\""), "{}", camera[0]);
+}
+
 /// The exposure score of `systemd-analyze security` (offline, the unit as shipped):
 /// 3.5 before the hardening of issue 17, 1.9 after; it must not creep back up.
 #[test]
