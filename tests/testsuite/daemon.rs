@@ -776,7 +776,7 @@ fn a_journal_that_stops_reading_never_holds_up_a_roll() {
 }
 
 #[test]
-fn a_camera_of_another_size_stops_the_daemon_with_the_keys_to_change() {
+fn a_camera_of_another_kind_stops_the_daemon_with_the_keys_to_change() {
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
     let dir = TempDir::new("caer-size");
     let config = dir.0.join("faithd.toml");
@@ -795,8 +795,9 @@ fn a_camera_of_another_size_stops_the_daemon_with_the_keys_to_change() {
     let text = String::from_utf8_lossy(&output.stderr);
     // A configuration error: exit 2, which the unit does not restart.
     assert_eq!(output.status.code(), Some(2), "{text}");
-    assert!(text.contains("camera is 346x260"), "{text}");
-    assert!(text.contains("pipeline.camera.width_px"), "{text}");
+    assert!(text.contains("camera is a DAVIS346 (346x260 px)"), "{text}");
+    assert!(text.contains("`source.device`"), "{text}");
+    assert!(text.contains("pipeline.camera for its size"), "{text}");
     assert!(text.contains("roll channel"), "{text}");
 }
 
