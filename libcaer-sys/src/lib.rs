@@ -41,6 +41,13 @@ pub type caerEventPacketHeader = *mut u8;
 /// DAVIS cameras over USB (DAVIS240, which the DVS240 is).
 pub const CAER_DEVICE_DAVIS: u16 = 4;
 pub const CAER_DEVICE_DVS128: u16 = 0;
+/// The DVXplorer family (DVXplorer, Lite, Micro): `devices/dvxplorer.h` line 24 (not 6,
+/// which is `CAER_DEVICE_DAVIS_RPI`: `devices/davis.h` line 40).
+pub const CAER_DEVICE_DVXPLORER: u16 = 8;
+/// `caer_dvx_info.chipID` of a DVXplorer (640x480) and of a DVXplorer Lite
+/// (320x240): `devices/dvxplorer.h` lines 30 and 35.
+pub const DVXPLORER_CHIP_ID: i16 = 20;
+pub const DVXPLORER_LITE_CHIP_ID: i16 = 19;
 
 pub const CAER_HOST_CONFIG_DATAEXCHANGE: i8 = -2;
 pub const CAER_HOST_CONFIG_DATAEXCHANGE_BLOCKING: u8 = 1;
@@ -133,6 +140,54 @@ const _: () = {
 impl caer_davis_info {
     /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell:
     /// `caerDavisInfoGet` returns all zeros on failure.
+    pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
+        let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
+        let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
+        Some((x, y))
+    }
+}
+
+/// `struct caer_dvx_info` of libcaer 3.x (`libcaer/devices/dvxplorer.h` lines 643-676),
+/// field for field, as `caerDVXplorerInfoGet` (line 688) returns it by value: the
+/// DVXplorer family's counterpart of [`caer_davis_info`], its layout pinned the same
+/// way (its first fields, up to `dvsSizeY`, lie at the same offsets as the DAVIS
+/// one's).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct caer_dvx_info {
+    pub deviceID: i16,
+    pub deviceSerialNumber: [c_char; 9],
+    pub deviceUSBBusNumber: u8,
+    pub deviceUSBDeviceAddress: u8,
+    /// Valid only while the device is open.
+    pub deviceString: *mut c_char,
+    pub firmwareVersion: i16,
+    pub logicVersion: i16,
+    pub chipID: i16,
+    pub deviceIsMaster: bool,
+    pub muxHasStatistics: bool,
+    pub dvsSizeX: i16,
+    pub dvsSizeY: i16,
+    pub dvsHasStatistics: bool,
+    /// `enum caer_imu_types`.
+    pub imuType: i32,
+    pub extInputHasGenerator: bool,
+}
+
+#[cfg(target_pointer_width = "64")]
+const _: () = {
+    use std::mem::{offset_of, size_of};
+    assert!(size_of::<caer_dvx_info>() == 48);
+    assert!(offset_of!(caer_dvx_info, deviceString) == 16);
+    assert!(offset_of!(caer_dvx_info, chipID) == 28);
+    assert!(offset_of!(caer_dvx_info, dvsSizeX) == 32);
+    assert!(offset_of!(caer_dvx_info, dvsSizeY) == 34);
+    assert!(offset_of!(caer_dvx_info, imuType) == 40);
+};
+
+impl caer_dvx_info {
+    /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell
+    /// (all zeros, as `caerDavisInfoGet` on failure).
     pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
         let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
         let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
@@ -427,14 +482,23 @@ impl Drop for Container {
     }
 }
 
-/// The C mock of libcaer (`mock/caer_mock.c`), built as a shared library for tests:
-/// the same functions over a scripted stream, loaded exactly as libcaer is.
+/// The C test doubles, built as shared libraries for tests: the mock of libcaer
+/// (`mock/caer_mock.c`: the same functions over a scripted stream, loaded exactly as
+/// libcaer is) and the USB stand-in under the real libcaer ([`mock::USB_STANDIN`]).
 #[cfg(feature = "mock")]
 pub mod mock {
     use super::caerEventPacketContainer;
 
     /// Path of the mock library built by this crate's build script.
     pub const LIBRARY: &str = concat!(env!("OUT_DIR"), "/libcaer_mock.so");
+
+    /// Path of the USB stand-in built by this crate's build script
+    /// (`usb_standin/usb_standin.c`): libusb-1.0's functions over a pretend camera
+    /// (DAVIS240, DAVIS346, DVXplorer), for running iniVation's real libcaer without
+    /// one. Preload it (`LD_PRELOAD`) into the process that loads libcaer, and choose
+    /// the camera, its scene and its faults with the `USB_STANDIN_*` variables the
+    /// file's head describes.
+    pub const USB_STANDIN: &str = concat!(env!("OUT_DIR"), "/libusb_standin.so");
 
     /// `caer_mock_fail` flags: what the device refuses.
     pub const FAIL_DEFAULT_CONFIG: i32 = 1;
