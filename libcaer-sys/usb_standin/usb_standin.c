@@ -919,6 +919,29 @@ static enum libusb_transfer_status control(const libusb_device_handle *handle, u
 	return status;
 }
 
+/* The register writes a control transfer's setup and data carry, as " attempt
+ * M.P=V" words: what a refused submission would have written. */
+static void describe_writes(const unsigned char *setup, char *out, size_t room) {
+	uint16_t value         = (uint16_t) (setup[2] | (setup[3] << 8));
+	uint16_t index         = (uint16_t) (setup[4] | (setup[5] << 8));
+	uint16_t length        = (uint16_t) (setup[6] | (setup[7] << 8));
+	const unsigned char *d = setup + LIBUSB_CONTROL_SETUP_SIZE;
+	out[0]                 = '\0';
+	if ((setup[0] & LIBUSB_ENDPOINT_IN) != 0) {
+		return;
+	}
+	if (setup[1] == VR_FPGA_CONFIG && length == 4) {
+		snprintf(out, room, " attempt %u.%u=%u", value, index, be32(d));
+	}
+	else if (setup[1] == VR_FPGA_CONFIG_MULTIPLE && length == 6U * value) {
+		size_t used = 0;
+		for (uint16_t i = 0; i < value && used < room; i++) {
+			used += (size_t) snprintf(
+				out + used, room - used, " attempt %u.%u=%u", d[6 * i], d[6 * i + 1], be32(d + 6 * i + 2));
+		}
+	}
+}
+
 /* ------------------------------------------------------------- libusb: core */
 
 EXPORT int libusb_init(libusb_context **ctx) {
@@ -1306,9 +1329,13 @@ EXPORT int libusb_submit_transfer(struct libusb_transfer *transfer) {
 	/* Control transfers are logged as requests when the device answers them; data
 	 * transfers on their first submission (libcaer resubmits each one as it
 	 * completes), and every refused submission. */
-	if (transfer->type != LIBUSB_TRANSFER_TYPE_CONTROL && (!t->submitted_before || result != LIBUSB_SUCCESS)) {
-		logf_("submit endpoint=0x%02x type=%s length=%d result=%d", transfer->endpoint, type_name(transfer->type),
-			transfer->length, result);
+	if ((transfer->type != LIBUSB_TRANSFER_TYPE_CONTROL && !t->submitted_before) || result != LIBUSB_SUCCESS) {
+		char attempted[256] = "";
+		if (transfer->type == LIBUSB_TRANSFER_TYPE_CONTROL) {
+			describe_writes(transfer->buffer, attempted, sizeof(attempted));
+		}
+		logf_("submit endpoint=0x%02x type=%s length=%d result=%d%s", transfer->endpoint, type_name(transfer->type),
+			transfer->length, result, attempted);
 	}
 	if (result == LIBUSB_SUCCESS) {
 		t->submitted_before = true;

@@ -11,6 +11,7 @@ mod common;
 
 mod architectures;
 mod caer_mock;
+mod caer_usb;
 #[cfg(feature = "sim")]
 mod closed_loop;
 mod daemon;
