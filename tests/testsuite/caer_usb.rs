@@ -230,6 +230,12 @@ fn assert_sessions_ended_cleanly(log: &[Line]) -> Vec<Session> {
         assert!(s.closed, "session {k} was never closed: {s:?}");
         assert_eq!(s.stopped, s.started, "session {k}: {s:?}");
     }
+    let opened = log
+        .iter()
+        .filter(|l| l.what() == "open" && l.field("result") == Some("0"))
+        .count();
+    let closed = log.iter().filter(|l| l.what() == "close").count();
+    assert_eq!(opened, closed, "every handle libusb_open gave is closed");
     let inits = log.iter().filter(|l| l.what() == "init").count();
     let exits = log.iter().filter(|l| l.what() == "exit").count();
     assert_eq!(inits, exits, "every libusb_init has its libusb_exit");
@@ -837,6 +843,19 @@ fn discover_names_the_cameras_libcaer_cannot_use() {
 
 // ------------------------------------------------------------------ faithd run
 
+/// The real libcaer's path for `faithd run` tests, or `None` (and one line): also
+/// when the faithd under test is another architecture's build (`FAITHD_UNDER_TEST`),
+/// which could load neither this libcaer nor this stand-in.
+fn real_library_for_faithd() -> Option<String> {
+    if common::faithd_under_test().is_some() {
+        say(
+            "skipped: FAITHD_UNDER_TEST names another build; the USB stand-in and libcaer are this one's",
+        );
+        return None;
+    }
+    real_library()
+}
+
 /// `faithd run` with the real libcaer and the stand-in preloaded, against the mock
 /// autopilot, recording its flight.
 struct Faithd {
@@ -1016,7 +1035,7 @@ fn assert_on_the_device_clock(m: &Matched) {
 /// and closes it and exits 0 at once.
 fn faithd_streams(camera: &Camera, source_lines: &str, tail: &str) {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
@@ -1123,7 +1142,7 @@ fn faithd_run_records_a_dvxplorers_encoded_events() {
 #[test]
 fn faithd_run_survives_a_dark_scene_and_streams_after_it() {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
@@ -1172,7 +1191,7 @@ fn faithd_run_survives_a_dark_scene_and_streams_after_it() {
 #[test]
 fn faithd_run_streams_again_after_the_camera_is_unplugged_and_plugged_back() {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
@@ -1242,7 +1261,7 @@ fn faithd_run_streams_again_after_the_camera_is_unplugged_and_plugged_back() {
 /// closed first.
 #[test]
 fn faithd_run_stops_with_exit_2_on_a_setting_the_camera_refuses() {
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
@@ -1277,7 +1296,7 @@ fn faithd_run_stops_with_exit_2_on_a_setting_the_camera_refuses() {
 #[test]
 fn faithd_run_crosses_the_31_bit_timestamp_wrap_cleanly() {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let start_us = (1i64 << 31) - 500_000;
@@ -1315,7 +1334,7 @@ fn faithd_run_crosses_the_31_bit_timestamp_wrap_cleanly() {
 #[test]
 fn faithd_run_exits_at_once_on_sigterm_while_retrying_without_a_camera() {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
@@ -1349,10 +1368,45 @@ fn faithd_run_exits_at_once_on_sigterm_while_retrying_without_a_camera() {
     assert!(assert_sessions_ended_cleanly(&log).is_empty());
 }
 
+/// A camera another program holds: libcaer opens it, cannot claim it, closes it;
+/// faithd keeps trying and stops at once on SIGTERM, nothing left open.
+#[test]
+fn faithd_run_exits_at_once_on_sigterm_while_retrying_a_busy_camera() {
+    let _cpu = common::cpu::timed();
+    let Some(library) = real_library_for_faithd() else {
+        return;
+    };
+    let mut faithd = Faithd::start(
+        "usb-busy",
+        &library,
+        "",
+        "",
+        &[("USB_STANDIN_FAULT", "busy")],
+    );
+    assert!(faithd.wait_for(Duration::from_secs(10), |j| {
+        j.matches("no DAVIS camera could be opened").count() >= 2
+    }));
+    let (status, took) = faithd.sigterm();
+    let journal = faithd.journal();
+    say(&format!(
+        "faithd run, busy camera: SIGTERM to exit {} ms",
+        took.as_millis()
+    ));
+    assert_eq!(status.code(), Some(0), "{journal}");
+    assert!(took < EXIT_WITHIN, "{took:?}\n{journal}");
+    let log = faithd.standin();
+    let claims = log
+        .iter()
+        .filter(|l| l.what() == "claim" && l.field("result") == Some("-6"))
+        .count();
+    assert!(claims >= 2, "{claims} claims refused");
+    assert!(assert_sessions_ended_cleanly(&log).is_empty());
+}
+
 #[test]
 fn faithd_run_exits_at_once_on_sigterm_in_a_dark_scene() {
     let _cpu = common::cpu::timed();
-    let Some(library) = real_library() else {
+    let Some(library) = real_library_for_faithd() else {
         return;
     };
     let mut faithd = Faithd::start(
