@@ -43,15 +43,19 @@
  *   USB_STANDIN_REPLUG_MS T2      it is back T2 ms after that first stream start (at a
  *                        new device address, its registers and clock reset).
  *   USB_STANDIN_SERIAL   the serial number string (at most 8 characters).
- *   USB_STANDIN_LOG      a file to append one line to per init, exit, device list,
- *                        open, close, claim, release, clear-halt, control request
- *                        (direction, bRequest, wValue, wIndex, length, data bytes,
- *                        decoded as "set M.P=V" or "get M.P=V", and its status),
- *                        transfer submit (first submission of each transfer),
- *                        cancel, non-completed data transfer, stream start, unplug
- *                        and replug. Each line starts with the milliseconds since
- *                        load, then a word naming what happened, then key=value
- *                        pairs.
+ *   USB_STANDIN_LOG      a file to append one line to per init (the first one also
+ *                        says what the stand-in presents: "load ..."), exit, device
+ *                        list, open, close, claim, release, clear-halt, control
+ *                        request answered ("control": direction, bRequest, wValue,
+ *                        wIndex, length, data bytes, its status, then decoded
+ *                        "set M.P=V", "get M.P=V" or "refuse M.P=V"), transfer
+ *                        submit (the first submission of each data transfer, and
+ *                        every refused one, a refused control request's writes
+ *                        decoded as "attempt M.P=V"), cancel, data transfer ended
+ *                        otherwise than COMPLETED ("complete ... status=..."),
+ *                        timestamp reset ("stream"), unplug and replug. Each line
+ *                        starts with the milliseconds since the library loaded,
+ *                        then a word naming what happened, then key=value pairs.
  *   USB_STANDIN_EVENTS   a file to append every event the device put on the wire
  *                        to, "t_us x y p" (device time, pixel, 1 = ON), and a line
  *                        "# reset clock_start_us=N" at each timestamp reset.
@@ -323,6 +327,8 @@ struct itransfer {
 	bool submitted_before;
 	struct libusb_transfer pub;
 };
+
+static void unlink_transfer(struct itransfer *t);
 
 static struct {
 	pthread_mutex_t lock;
@@ -1133,6 +1139,15 @@ EXPORT void libusb_close(libusb_device_handle *dev_handle) {
 		(unsigned long long) S.dropped_words);
 	if (S.claimed_by == dev_handle) {
 		S.claimed_by = NULL;
+	}
+	/* A transfer still in flight on a closed handle would complete into freed
+	 * memory: it is dropped (libusb leaves this undefined; libcaer never does it). */
+	for (struct itransfer *t = S.in_flight, *next; t != NULL; t = next) {
+		next = t->next;
+		if (t->pub.dev_handle == dev_handle) {
+			logf_("dropped endpoint=0x%02x in flight at close", t->pub.endpoint);
+			unlink_transfer(t);
+		}
 	}
 	unref(dev_handle->dev);
 	free(dev_handle);

@@ -360,10 +360,11 @@ fn identity(
     )
 }
 
-/// A command run by [`in_child`], in the child process: `stream TYPE MS` opens the
-/// first camera of that libcaer device type, reads its info, sends libcaer's default
-/// configuration, starts the data (non-blocking), reads for MS milliseconds or until
-/// the camera is lost, stops and closes it; `discover TYPE` reports
+/// A command run by [`in_child`], in the child process: `stream TYPE MS [reopen]`
+/// opens the first camera of that libcaer device type, reads its info, sends libcaer's
+/// default configuration, starts the data (non-blocking), reads for MS milliseconds
+/// or until the camera is lost, stops and closes it (and with `reopen` tries to open
+/// it again); `discover TYPE` reports
 /// `caerDeviceDiscover`'s first result. The report goes to `CAER_USB_REPORT`.
 #[test]
 #[ignore = "a child of the caer_usb tests: runs with the USB stand-in preloaded"]
@@ -376,12 +377,25 @@ fn ffi_child() {
     let device_type: u16 = words[1].parse().unwrap();
     let mut report = Vec::new();
     match words[0] {
-        "stream" => stream_in_child(
-            &library,
-            device_type,
-            Duration::from_millis(words[2].parse().unwrap()),
-            &mut report,
-        ),
+        "stream" => {
+            stream_in_child(
+                &library,
+                device_type,
+                Duration::from_millis(words[2].parse().unwrap()),
+                &mut report,
+            );
+            if words.get(3) == Some(&"reopen") {
+                let caer = Libcaer::load(Some(&library)).unwrap();
+                // SAFETY: plain values; a handle, if any, is closed at once.
+                let mut handle =
+                    unsafe { (caer.caerDeviceOpen)(2, device_type, 0, 0, std::ptr::null()) };
+                report.push(format!("reopen null={}", u8::from(handle.is_null())));
+                if !handle.is_null() {
+                    // SAFETY: an open handle, closed once.
+                    unsafe { (caer.caerDeviceClose)(&mut handle) };
+                }
+            }
+        }
         "discover" => discover_in_child(&library, device_type as i16, &mut report),
         other => panic!("unknown child command {other}"),
     }
@@ -707,9 +721,17 @@ fn an_unplugged_camera_ends_libcaers_stream_and_is_gone() {
     };
     let run = in_child(
         &library,
-        &format!("stream {CAER_DEVICE_DAVIS} 3000"),
+        &format!("stream {CAER_DEVICE_DAVIS} 3000 reopen"),
         &[("USB_STANDIN_UNPLUG_MS", "300")],
     );
+    assert_eq!(run.fields("reopen")["null"], "1", "the camera is gone");
+    let lists: Vec<&str> = run
+        .log
+        .iter()
+        .filter(|l| l.what() == "device-list")
+        .filter_map(|l| l.field("count"))
+        .collect();
+    assert_eq!(lists.last(), Some(&"0"), "{lists:?}");
     assert_eq!(run.fields("read")["lost"], "1", "{:?}", run.fields("read"));
     assert!(run.number("read", "ms") < 1_000);
     let no_device = run
