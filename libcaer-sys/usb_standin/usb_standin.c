@@ -317,16 +317,23 @@ struct libusb_device_handle {
 	bool claimed;
 };
 
-/* A transfer as this library allocates it: its own bookkeeping, then the public
- * struct (last: it ends in a flexible array). */
+/* A transfer as this library allocates it, as libusb itself does: its own
+ * bookkeeping, then (at ITRANSFER_HEAD bytes, aligned) the public struct, which ends
+ * in a flexible array. */
 struct itransfer {
 	struct itransfer *next;
 	libusb_context *ctx;
 	bool in_flight;
 	bool cancelled;
 	bool submitted_before;
-	struct libusb_transfer pub;
 };
+
+#define ITRANSFER_HEAD \
+	((sizeof(struct itransfer) + _Alignof(max_align_t) - 1) / _Alignof(max_align_t) * _Alignof(max_align_t))
+
+static struct libusb_transfer *public_of(struct itransfer *t) {
+	return (struct libusb_transfer *) (void *) ((char *) t + ITRANSFER_HEAD);
+}
 
 static void unlink_transfer(struct itransfer *t);
 
@@ -1144,8 +1151,8 @@ EXPORT void libusb_close(libusb_device_handle *dev_handle) {
 	 * memory: it is dropped (libusb leaves this undefined; libcaer never does it). */
 	for (struct itransfer *t = S.in_flight, *next; t != NULL; t = next) {
 		next = t->next;
-		if (t->pub.dev_handle == dev_handle) {
-			logf_("dropped endpoint=0x%02x in flight at close", t->pub.endpoint);
+		if (public_of(t)->dev_handle == dev_handle) {
+			logf_("dropped endpoint=0x%02x in flight at close", public_of(t)->endpoint);
 			unlink_transfer(t);
 		}
 	}
@@ -1269,17 +1276,17 @@ EXPORT int libusb_control_transfer(libusb_device_handle *dev_handle, uint8_t req
 /* -------------------------------------------------------- libusb: transfers */
 
 static struct itransfer *outer(struct libusb_transfer *t) {
-	return (struct itransfer *) (void *) ((char *) t - offsetof(struct itransfer, pub));
+	return (struct itransfer *) (void *) ((char *) t - ITRANSFER_HEAD);
 }
 
 EXPORT struct libusb_transfer *libusb_alloc_transfer(int iso_packets) {
 	size_t extra        = (iso_packets > 0) ? (size_t) iso_packets * sizeof(struct libusb_iso_packet_descriptor) : 0;
-	struct itransfer *t = calloc(1, sizeof(*t) + extra);
+	struct itransfer *t = calloc(1, ITRANSFER_HEAD + sizeof(struct libusb_transfer) + extra);
 	if (t == NULL) {
 		return NULL;
 	}
-	t->pub.num_iso_packets = iso_packets;
-	return &t->pub;
+	public_of(t)->num_iso_packets = iso_packets;
+	return public_of(t);
 }
 
 static void unlink_transfer(struct itransfer *t) {
@@ -1387,7 +1394,7 @@ static int collect(libusb_context *ctx, int64_t now, struct itransfer **done, in
 	int n = 0;
 	for (struct itransfer *t = S.in_flight, *next; t != NULL && n < room; t = next) {
 		next                       = t->next;
-		struct libusb_transfer *pub = &t->pub;
+		struct libusb_transfer *pub = public_of(t);
 		if (t->ctx != ctx) {
 			continue;
 		}
@@ -1465,7 +1472,7 @@ EXPORT int libusb_handle_events_timeout(libusb_context *ctx, struct timeval *tv)
 	pthread_mutex_unlock(&S.lock);
 
 	for (int i = 0; i < n; i++) {
-		struct libusb_transfer *pub = &done[i]->pub;
+		struct libusb_transfer *pub = public_of(done[i]);
 		bool free_it               = (pub->flags & LIBUSB_TRANSFER_FREE_TRANSFER) != 0;
 		if (pub->callback != NULL) {
 			pub->callback(pub);
