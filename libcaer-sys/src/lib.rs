@@ -42,8 +42,13 @@ pub type caerEventPacketHeader = *mut u8;
 /// is, and the DAVIS346): `devices/davis.h` line 36.
 pub const CAER_DEVICE_DAVIS: u16 = 4;
 pub const CAER_DEVICE_DVS128: u16 = 0;
-/// The DVXplorer family (DVXplorer, Micro, Lite): `devices/dvxplorer.h` line 24.
+/// The DVXplorer family (DVXplorer, Lite, Micro): `devices/dvxplorer.h` line 24 (not 6,
+/// which is `CAER_DEVICE_DAVIS_RPI`: `devices/davis.h` line 40).
 pub const CAER_DEVICE_DVXPLORER: u16 = 8;
+/// `caer_dvx_info.chipID` of a DVXplorer (640x480) and of a DVXplorer Lite
+/// (320x240): `devices/dvxplorer.h` lines 30 and 35.
+pub const DVXPLORER_CHIP_ID: i16 = 20;
+pub const DVXPLORER_LITE_CHIP_ID: i16 = 19;
 /// `caerDeviceDiscover`'s "every device type" (`devices/device_discover.h` line 54).
 pub const CAER_DEVICE_DISCOVER_ALL: i16 = -1;
 
@@ -145,9 +150,11 @@ impl caer_davis_info {
     }
 }
 
-/// `struct caer_dvx_info` of libcaer 3.x (`libcaer/devices/dvxplorer.h` line 643), as
-/// `caerDVXplorerInfoGet` returns it by value; the layout is pinned as
-/// [`caer_davis_info`]'s is, for the same reason.
+/// `struct caer_dvx_info` of libcaer 3.x (`libcaer/devices/dvxplorer.h` lines 643-676),
+/// field for field, as `caerDVXplorerInfoGet` (line 688) returns it by value: the
+/// DVXplorer family's counterpart of [`caer_davis_info`], its layout pinned the same
+/// way (its first fields, up to `dvsSizeY`, lie at the same offsets as the DAVIS
+/// one's).
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct caer_dvx_info {
@@ -155,7 +162,7 @@ pub struct caer_dvx_info {
     pub deviceSerialNumber: [c_char; 9],
     pub deviceUSBBusNumber: u8,
     pub deviceUSBDeviceAddress: u8,
-    /// Valid only while the device is open; faithd does not read it.
+    /// Valid only while the device is open.
     pub deviceString: *mut c_char,
     pub firmwareVersion: i16,
     pub logicVersion: i16,
@@ -174,6 +181,7 @@ pub struct caer_dvx_info {
 const _: () = {
     use std::mem::{offset_of, size_of};
     assert!(size_of::<caer_dvx_info>() == 48);
+    assert!(offset_of!(caer_dvx_info, deviceString) == 16);
     assert!(offset_of!(caer_dvx_info, chipID) == 28);
     assert!(offset_of!(caer_dvx_info, dvsSizeX) == 32);
     assert!(offset_of!(caer_dvx_info, dvsSizeY) == 34);
@@ -182,7 +190,7 @@ const _: () = {
 
 impl caer_dvx_info {
     /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell
-    /// (all zeros on failure, as for the DAVIS).
+    /// (all zeros, as `caerDavisInfoGet` on failure).
     pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
         let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
         let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
@@ -209,8 +217,9 @@ pub struct caer_device_discovery_head {
 pub const DISCOVERY_INFO_OFFSET: usize = std::mem::align_of::<*const c_char>();
 /// Size of one discovery result on 64-bit targets: the head, then the union, as large
 /// as its largest member, `struct caer_edvs_info` (96 bytes: `devices/edvs.h`, its
-/// 64-byte `serialPortName` and the baud rate). Checked against the real library by
-/// the USB stand-in's tests.
+/// 64-byte `serialPortName` and the baud rate): `sizeof` is 104 compiled against
+/// libcaer 3.3.9's headers. The first entry, all a single camera gives, is read the
+/// same at any stride (the USB stand-in's tests read it through libcaer 3.3.15).
 #[cfg(target_pointer_width = "64")]
 pub const DISCOVERY_RESULT_BYTES: usize = 8 + 96;
 
@@ -598,14 +607,23 @@ impl Drop for Container {
     }
 }
 
-/// The C mock of libcaer (`mock/caer_mock.c`), built as a shared library for tests:
-/// the same functions over a scripted stream, loaded exactly as libcaer is.
+/// The C test doubles, built as shared libraries for tests: the mock of libcaer
+/// (`mock/caer_mock.c`: the same functions over a scripted stream, loaded exactly as
+/// libcaer is) and the USB stand-in under the real libcaer ([`mock::USB_STANDIN`]).
 #[cfg(feature = "mock")]
 pub mod mock {
     use super::caerEventPacketContainer;
 
     /// Path of the mock library built by this crate's build script.
     pub const LIBRARY: &str = concat!(env!("OUT_DIR"), "/libcaer_mock.so");
+
+    /// Path of the USB stand-in built by this crate's build script
+    /// (`usb_standin/usb_standin.c`): libusb-1.0's functions over a pretend camera
+    /// (DAVIS240, DAVIS346, DVXplorer), for running iniVation's real libcaer without
+    /// one. Preload it (`LD_PRELOAD`) into the process that loads libcaer, and choose
+    /// the camera, its scene and its faults with the `USB_STANDIN_*` variables the
+    /// file's head describes.
+    pub const USB_STANDIN: &str = concat!(env!("OUT_DIR"), "/libusb_standin.so");
 
     /// `caer_mock_fail` flags: what the device refuses.
     pub const FAIL_DEFAULT_CONFIG: i32 = 1;

@@ -980,7 +980,7 @@ fn a_camera_that_does_not_open_is_explained_by_its_cause_and_its_fix() {
     let (tx, _rx) = std::sync::mpsc::sync_channel(1000);
     let session = || serve_device(&lib, &davis240(&[]), &io(DaemonClock::start(), &tx));
     let cases = [
-        (UNUSABLE_PERMISSION, "a DAVIS240 is on USB (bus 1, address 5) but could not be opened: no permission on its device node (install the udev rule: docs/camera.md; then unplug and replug it)".to_string()),
+        (UNUSABLE_PERMISSION, "a DAVIS camera is on USB (bus 1, address 5) but could not be opened: no permission on its device node (install the udev rule: docs/camera.md; then unplug and replug it)".to_string()),
         (UNUSABLE_VERSION, "a DAVIS240 is on USB (bus 1, address 5) but its firmware (3) or logic (17) is not the version this libcaer requires: update the camera's firmware with iniVation's DV software (docs/camera.md)".to_string()),
         (UNUSABLE_BUSY, "a DAVIS240 is on USB (bus 1, address 5) but libcaer could not claim it: another program has it open (DV, or a second faithd: `fuser -v /dev/bus/usb/001/005`)".to_string()),
     ];

@@ -1,8 +1,8 @@
 //! faithd's integration tests, one test binary (as cargo's own `tests/testsuite`):
 //! the real `faithd` binary and `daemon::serve` against a mock iNav on
 //! pseudo-terminals, iNav's own firmware (SITL, when `INAV_SITL` names one), the C
-//! mock of libcaer and the real one (`LIBCAER_PATH`), pymavlink and dv-processing as
-//! peers, the unit, the package's manual pages, and with the `sim` feature the lab
+//! mock of libcaer and the real one (`LIBCAER_PATH`; on a pretend USB camera, the
+//! stand-in, in `caer_usb`), pymavlink and dv-processing as peers, the unit, the package's manual pages, and with the `sim` feature the lab
 //! (closed loop, `faithd sim`, videos). Support by concern in [`common`]. The other
 //! crates test themselves: `cargo test -p faithd-core` (and formats, sim, daemon, inav,
 //! lab).
@@ -11,6 +11,7 @@ mod common;
 
 mod architectures;
 mod caer_mock;
+mod caer_usb;
 #[cfg(feature = "sim")]
 mod closed_loop;
 mod daemon;

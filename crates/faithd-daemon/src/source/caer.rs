@@ -353,11 +353,18 @@ pub fn why_not_opened(lib: &Libcaer, device: CaerDevice) -> String {
     let Some(camera) = found.first() else {
         return no_camera(device);
     };
+    // A device libusb could not open has told nothing of its chip.
+    let name = if camera.error_open {
+        match camera.device_type {
+            caer::CAER_DEVICE_DAVIS => "DAVIS camera",
+            _ => "DVXplorer",
+        }
+    } else {
+        chip_name(camera.device_type, camera.chip_id)
+    };
     let at = format!(
-        "a {} is on USB (bus {}, address {})",
-        chip_name(camera.device_type, camera.chip_id),
-        camera.usb_bus,
-        camera.usb_address
+        "a {name} is on USB (bus {}, address {})",
+        camera.usb_bus, camera.usb_address
     );
     if camera.error_open {
         format!(
