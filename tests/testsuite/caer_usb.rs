@@ -1454,6 +1454,13 @@ fn faithd_run_exits_at_once_on_sigterm_in_a_dark_scene() {
     assert!(all[0].started && all[0].stopped);
 }
 
+/// (case, the stand-in's variables, what faithd's journal says).
+type UnusableCase = (
+    &'static str,
+    &'static [(&'static str, &'static str)],
+    &'static str,
+);
+
 /// A camera the real libcaer cannot use: faithd's journal names the cause, from
 /// libcaer's own discovery, and the fix, and keeps trying; nothing is left open. The
 /// stand-in presents each cause as a camera shows it on USB.
@@ -1463,7 +1470,7 @@ fn faithd_run_names_why_a_camera_cannot_be_used_and_the_fix() {
     let Some(library) = real_library_for_faithd() else {
         return;
     };
-    let cases: [(&str, &[(&str, &str)], &str); 6] = [
+    let cases: [UnusableCase; 6] = [
         (
             "firmware too old",
             &[("USB_STANDIN_FIRMWARE", "3")],
