@@ -42,30 +42,15 @@ use crate::clock::DaemonClock;
 use crate::shutdown::Stop;
 use crate::source::SourceIo;
 use crate::source::caer_device::{CONTAINER_INTERVAL_US, CaerDevice, chip_name};
+pub use crate::source::caer_device::{SensorSize, Setting};
 use crate::source::device_clock::{DeviceClock, DeviceClockConfig, Observed};
 use faithd_core::event::{Event, Polarity};
-
-/// One libcaer configuration write: (module, parameter, value).
-pub type Setting = (i8, u8, u32);
 
 unsafe extern "C" fn on_shutdown(ptr: *mut std::ffi::c_void) {
     // SAFETY: `ptr` is the `AtomicBool` a [`Device`] owns and frees only after
     // caerDeviceDataStop/Close, which end libcaer's USB thread, the caller.
     let flag = unsafe { &*(ptr as *const AtomicBool) };
     flag.store(true, Ordering::SeqCst);
-}
-
-/// A DVS resolution in pixels.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct SensorSize {
-    pub width_px: u16,
-    pub height_px: u16,
-}
-
-impl std::fmt::Display for SensorSize {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}x{} px", self.width_px, self.height_px)
-    }
 }
 
 /// The camera faithd is to stream from: which one, the settings to write once it

@@ -13,9 +13,24 @@ use std::ops::RangeInclusive;
 
 use serde::{Deserialize, Serialize};
 
-use super::caer::{SensorSize, Setting};
 use faithd_core::invalid::Invalid;
 use libcaer_sys as caer;
+
+/// One libcaer configuration write: (module, parameter, value).
+pub type Setting = (i8, u8, u32);
+
+/// A DVS resolution in pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SensorSize {
+    pub width_px: u16,
+    pub height_px: u16,
+}
+
+impl std::fmt::Display for SensorSize {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{} px", self.width_px, self.height_px)
+    }
+}
 
 /// The camera on USB, as `[source] device` names it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
