@@ -140,13 +140,18 @@ const _: () = {
     assert!(offset_of!(caer_davis_info, imuType) == 56);
 };
 
+/// A size libcaer reported, or `None` for its all-zeros failure (or a negative one).
+fn positive_size(x: i16, y: i16) -> Option<(u16, u16)> {
+    let x = u16::try_from(x).ok().filter(|&x| x > 0)?;
+    let y = u16::try_from(y).ok().filter(|&y| y > 0)?;
+    Some((x, y))
+}
+
 impl caer_davis_info {
     /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell:
     /// `caerDavisInfoGet` returns all zeros on failure.
     pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
-        let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
-        let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
-        Some((x, y))
+        positive_size(self.dvsSizeX, self.dvsSizeY)
     }
 }
 
@@ -192,9 +197,7 @@ impl caer_dvx_info {
     /// The DVS resolution (x, y) in pixels, or `None` when libcaer could not tell
     /// (all zeros, as `caerDavisInfoGet` on failure).
     pub fn dvs_size_px(&self) -> Option<(u16, u16)> {
-        let x = u16::try_from(self.dvsSizeX).ok().filter(|&x| x > 0)?;
-        let y = u16::try_from(self.dvsSizeY).ok().filter(|&y| y > 0)?;
-        Some((x, y))
+        positive_size(self.dvsSizeX, self.dvsSizeY)
     }
 }
 
