@@ -85,6 +85,7 @@ pub struct WindowLogLine<'a> {
     pub max_vectors: usize,
     pub foe_iterations: u32,
     pub max_fits: usize,
+    pub max_events: usize,
 }
 
 /// What a replay needs from a recorded line to rerun its window; the rest of the line
@@ -99,6 +100,11 @@ pub struct RecordedWindow {
     /// windows fitted every event).
     #[serde(default)]
     pub max_fits: Option<usize>,
+    /// The event cap in force; absent from logs written before there was one (no
+    /// window of theirs held more events than the configuration's cap: their DVS240
+    /// peaks at 120,000 a window).
+    #[serde(default)]
+    pub max_events: Option<usize>,
 }
 
 /// One decision window, as printed.
