@@ -35,6 +35,15 @@ pub struct BenchFoeArgs {
     /// Also fly every third trajectory with body rotation (exercises derotation).
     #[arg(long)]
     rotation: bool,
+    /// The camera flown (the same flights and scenes, rendered at its size; all
+    /// with the DAVIS240's field of view): davis240, davis346, dvxplorer or
+    /// dvxplorer-lite.
+    #[arg(long, default_value = "davis240", value_parser = parse_camera)]
+    camera: CameraPreset,
+    /// Give the methods at most this many (newest) vectors of the history, as the
+    /// pipeline's `max_vectors` does (default: the whole 50 ms history).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(50..))]
+    max_vectors: Option<u32>,
 }
 
 /// `faithd bench pipeline`.
@@ -93,6 +102,8 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
         trajectories: args.trajectories as usize,
         seed: args.seed,
         rotation: args.rotation,
+        camera: args.camera,
+        max_vectors: args.max_vectors.map(|n| n as usize),
         ..Default::default()
     };
     if let Some(t) = args.threads {
