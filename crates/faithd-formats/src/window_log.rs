@@ -118,6 +118,15 @@ pub struct WindowLine {
     pub clusters: usize,
     pub derotated: bool,
     pub decision: Decision,
+    /// Events left out before the flow: the window held more than its event cap
+    /// (`pipeline.flow.max_events_per_window`, or less under load shedding).
+    /// Printed only when some were.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub skipped_events: u64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 pub fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
@@ -141,6 +150,7 @@ impl WindowLine {
             clusters: report.clusters.len(),
             derotated: report.derotation.applied,
             decision: report.decision,
+            skipped_events: report.flow_stats.skipped,
         }
     }
 }

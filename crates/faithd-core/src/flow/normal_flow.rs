@@ -344,6 +344,49 @@ mod tests {
             .collect()
     }
 
+    /// A window over its event cap keeps exactly the cap's worth, in runs spread from
+    /// its start to its end, and counts the others; a window within it keeps all.
+    #[test]
+    fn a_window_over_its_event_cap_keeps_evenly_spaced_runs() {
+        let cam = CameraIntrinsics::dvs240();
+        let events = every_pixel(0, 10_000);
+        let (len, cap) = (events.len(), 10_000);
+        let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+        let mut out = Vec::new();
+        flow.process_window_within(&events, cap, 1_000, &mut out);
+        let stats = flow.take_stats();
+        assert_eq!(
+            (stats.events, stats.skipped),
+            (cap as u64, (len - cap) as u64)
+        );
+        // The same as the runs fed by hand: 16 events from every 1/625th of the window.
+        let blocks = cap.div_ceil(KEPT_RUN);
+        let kept: Vec<Event> = (0..blocks)
+            .flat_map(|b| {
+                let start = b * len / blocks;
+                events[start..start + cap * (b + 1) / blocks - cap * b / blocks].to_vec()
+            })
+            .collect();
+        assert_eq!(kept.len(), cap);
+        assert_eq!(kept[0], events[0]);
+        assert!(kept[cap - 1].t_us > 9_900, "{:?}", kept[cap - 1]);
+        let mut by_hand = NormalFlow::new(&cam, FlowConfig::default());
+        let mut expected = Vec::new();
+        by_hand.process_window(&kept, 1_000, &mut expected);
+        assert_eq!(out, expected);
+        assert_eq!(
+            by_hand.take_stats(),
+            FlowStats {
+                skipped: 0,
+                ..stats
+            }
+        );
+        // Within the cap nothing is left out.
+        out.clear();
+        flow.process_window_within(&every_pixel(300_000, 10_000), len, 1_000, &mut out);
+        assert_eq!(flow.take_stats().skipped, 0);
+    }
+
     /// Plane fits a window tried: events that marked their pixel and were chosen.
     fn fits(stats: &FlowStats) -> u64 {
         stats.events - stats.out_of_view - stats.refractory - stats.not_fitted

@@ -210,6 +210,8 @@ pub struct Cycle {
     max_fits: usize,
     max_events: usize,
     overrun_log: Throttle,
+    /// Windows over the event cap, logged at most every `LOG_EVERY_US`.
+    capped_log: Throttle,
     telemetry: PipelineTelemetry,
     /// Hears every window (a simulated flight's video).
     window_tap: Option<WindowTap>,
@@ -247,6 +249,7 @@ impl Cycle {
             max_fits: pipeline_config.flow.max_fits_per_window,
             max_events: pipeline_config.flow.max_events_per_window,
             overrun_log: Throttle::new(LOG_EVERY_US),
+            capped_log: Throttle::new(LOG_EVERY_US),
             telemetry: PipelineTelemetry::default(),
             window_tap: None,
             pipeline_config,
@@ -351,6 +354,18 @@ impl Cycle {
             ..
         } = outcome;
         outputs.status.send_replace(status);
+        if work.skipped > 0 {
+            let max_events = self.max_events;
+            self.capped_log.event(decision.t_us, |windows| {
+                tracing::warn!(
+                    events = work.events,
+                    skipped = work.skipped,
+                    max_events,
+                    windows_since_last_line = windows,
+                    "window over the event cap: evenly spaced runs of its events kept"
+                )
+            });
+        }
         self.telemetry.events += work.events as u64;
         self.telemetry.foe_px = decision.foe_px;
         self.telemetry.obstacle_ttc_s = decision.obstacle.map(|o| o.mean_ttc_s);
