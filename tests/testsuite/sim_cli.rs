@@ -213,3 +213,162 @@ fn the_demo_prints_its_summary_and_a_journal_without_a_line_per_window() {
         stderr.lines().count()
     );
 }
+
+/// `bench pipeline --camera`: the streams at the camera's size, and the figures that
+/// say whether the pipeline kept up (no timing is asserted: the machine is shared).
+#[test]
+fn bench_pipeline_runs_at_a_cameras_size_and_reports_whether_it_kept_up() {
+    let _cpu = crate::common::cpu::heavy();
+    let run = |args: &[&str]| {
+        let out = faithd(&[&["bench", "pipeline", "--seconds", "0.05", "--json"], args].concat());
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let davis = run(&["--events-per-s", "200000"]);
+    assert_eq!(davis["camera"], "davis240");
+    assert_eq!(
+        (davis["width_px"].as_u64(), davis["height_px"].as_u64()),
+        (Some(240), Some(180))
+    );
+    let dvx = run(&["--camera", "dvxplorer", "--events-per-s", "200000,400000"]);
+    assert_eq!(dvx["camera"], "dvxplorer");
+    assert_eq!(
+        (dvx["width_px"].as_u64(), dvx["height_px"].as_u64()),
+        (Some(640), Some(480))
+    );
+    assert_eq!(
+        (dvx["period_us"].as_i64(), dvx["budget_us"].as_i64()),
+        (Some(10_000), Some(8_000))
+    );
+    let streams = dvx["streams"].as_array().unwrap();
+    assert_eq!(streams.len(), 2, "{dvx}");
+    for key in [
+        "window_us_p50",
+        "window_us_p99",
+        "stages_us",
+        "overruns",
+        "shed_windows",
+        "max_load_level",
+        "late_windows",
+        "backlog_us_max",
+        "take_us_p50",
+        "take_us_p99",
+        "flow_events_per_window_p50",
+        "capped_windows",
+        "events_per_window_p50",
+    ] {
+        assert!(
+            streams[0]["report"].get(key).is_some(),
+            "{key} missing: {dvx}"
+        );
+    }
+    // The scene's edges are multiplied to about the rate asked for, whatever the camera.
+    let rate = streams[1]["report"]["events_per_s"].as_f64().unwrap();
+    assert!((300_000.0..500_000.0).contains(&rate), "{rate}");
+}
+
+/// A window over the event cap keeps that many of its events, and says so.
+#[test]
+fn bench_pipeline_reports_the_windows_over_the_event_cap() {
+    let _cpu = crate::common::cpu::heavy();
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("faithd.toml");
+    std::fs::write(&config, "[pipeline.flow]\nmax_events_per_window = 5000\n").unwrap();
+    let out = faithd(&[
+        "bench",
+        "pipeline",
+        "--camera",
+        "dvxplorer",
+        "--events-per-s",
+        "2000000",
+        "--seconds",
+        "0.05",
+        "--config",
+        config.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let report = &o["streams"][0]["report"];
+    assert_eq!(
+        report["flow_events_per_window_p50"].as_f64(),
+        Some(5000.0),
+        "{o}"
+    );
+    let (capped, windows) = (
+        report["capped_windows"].as_u64().unwrap(),
+        report["windows"].as_u64().unwrap(),
+    );
+    // Every window but the stream's short last one holds about 20,000 events.
+    assert!(capped + 1 >= windows && capped > 0, "{o}");
+}
+
+/// `--camera` takes the presets' names; any other is refused with them.
+#[test]
+fn a_bad_camera_is_refused_with_the_cameras_there_are() {
+    for args in [
+        &["bench", "pipeline", "--camera", "dvs640"][..],
+        &["bench", "foe", "--camera", "davis640"][..],
+    ] {
+        let out = faithd(args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("the cameras are davis240, davis346, dvxplorer, dvxplorer-lite"),
+            "{args:?}: {err}"
+        );
+        assert!(out.stdout.is_empty(), "{args:?}");
+    }
+}
+
+/// `bench foe --camera`: the same flights rendered at the camera's size.
+#[test]
+fn bench_foe_flies_the_camera_asked_for() {
+    let _cpu = crate::common::cpu::heavy();
+    let dir = tempfile::tempdir().unwrap();
+    let out = faithd(&[
+        "bench",
+        "foe",
+        "--camera",
+        "dvxplorer-lite",
+        "--trajectories",
+        "1",
+        "--max-vectors",
+        "3000",
+        "--json",
+        "--plot-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(o["camera"], "dvxplorer-lite");
+    assert_eq!(
+        (o["width_px"].as_u64(), o["height_px"].as_u64()),
+        (Some(320), Some(240))
+    );
+    assert_eq!(o["max_vectors"].as_u64(), Some(3000));
+    assert_eq!(
+        (o["trajectories"].as_u64(), o["seed"].as_u64()),
+        (Some(1), Some(1))
+    );
+    let names: Vec<&str> = o["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names[0], "faith", "{o}");
+    assert!(o["methods"][0]["mean_error_deg"].as_f64().is_some(), "{o}");
+}

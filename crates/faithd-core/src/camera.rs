@@ -81,6 +81,47 @@ impl CameraIntrinsics {
         }
     }
 
+    /// DAVIS346 (346 x 260, 18.5 um pixels) behind a lens giving the DVS240 preset's
+    /// field of view (63.2 x 49.6 degrees: a 5.2 mm lens), so that a scene seen by
+    /// both looks the same, only finer.
+    pub fn davis346() -> Self {
+        Self::with_dvs240_view(346, 260)
+    }
+
+    /// DVXplorer (640 x 480, 9 um pixels) behind a lens giving the DVS240 preset's
+    /// field of view (63.2 x 49.6 degrees: a 4.7 mm lens).
+    pub fn dvxplorer() -> Self {
+        Self::with_dvs240_view(640, 480)
+    }
+
+    /// DVXplorer Lite (320 x 240) behind a lens giving the DVS240 preset's field of view.
+    pub fn dvxplorer_lite() -> Self {
+        Self::with_dvs240_view(320, 240)
+    }
+
+    /// A sensor of `width_px` x `height_px` seeing what the DVS240 preset sees: the
+    /// focal length grows with the width (the DVS240's 195 px per 240 columns), the
+    /// principal point sits at the centre. Every preset's aspect is within 0.2 % of
+    /// the DVS240's 4:3, so the vertical field of view matches too.
+    fn with_dvs240_view(width_px: u16, height_px: u16) -> Self {
+        let reference = Self::dvs240();
+        let f_px = reference.fx_px * f64::from(width_px) / f64::from(reference.width_px);
+        Self {
+            width_px,
+            height_px,
+            fx_px: f_px,
+            fy_px: f_px,
+            cx_px: (f64::from(width_px) - 1.0) / 2.0,
+            cy_px: (f64::from(height_px) - 1.0) / 2.0,
+        }
+    }
+
+    /// Pixels of this camera per pixel of the DVS240 preset at the centre of the view
+    /// (the ratio of focal lengths): what a length tuned in DVS240 pixels becomes here.
+    pub fn px_per_dvs240_px(&self) -> f64 {
+        self.fx_px / Self::dvs240().fx_px
+    }
+
     /// Image point (pixels) to normalised image plane coordinates (x/z, y/z).
     pub fn normalise(&self, x_px: f64, y_px: f64) -> (f64, f64) {
         (
@@ -124,6 +165,83 @@ impl CameraIntrinsics {
 
     pub fn pixel_count(&self) -> usize {
         usize::from(self.width_px) * usize::from(self.height_px)
+    }
+}
+
+/// The iniVation cameras faithd has intrinsics for, by the names the command line
+/// takes (`--camera`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CameraPreset {
+    /// DAVIS240 (the DVS240 sensor, 240 x 180): what faithd has flown with.
+    #[default]
+    Davis240,
+    Davis346,
+    Dvxplorer,
+    DvxplorerLite,
+}
+
+impl CameraPreset {
+    pub const ALL: [CameraPreset; 4] = [
+        CameraPreset::Davis240,
+        CameraPreset::Davis346,
+        CameraPreset::Dvxplorer,
+        CameraPreset::DvxplorerLite,
+    ];
+
+    /// The name `--camera` takes and reports print.
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraPreset::Davis240 => "davis240",
+            CameraPreset::Davis346 => "davis346",
+            CameraPreset::Dvxplorer => "dvxplorer",
+            CameraPreset::DvxplorerLite => "dvxplorer-lite",
+        }
+    }
+
+    /// The preset's intrinsics, all with the DVS240 preset's field of view.
+    pub fn intrinsics(self) -> CameraIntrinsics {
+        match self {
+            CameraPreset::Davis240 => CameraIntrinsics::dvs240(),
+            CameraPreset::Davis346 => CameraIntrinsics::davis346(),
+            CameraPreset::Dvxplorer => CameraIntrinsics::dvxplorer(),
+            CameraPreset::DvxplorerLite => CameraIntrinsics::dvxplorer_lite(),
+        }
+    }
+}
+
+impl std::fmt::Display for CameraPreset {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A camera name no preset has; says which names there are.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnknownCamera(pub String);
+
+impl std::fmt::Display for UnknownCamera {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = CameraPreset::ALL.iter().map(|c| c.name()).collect();
+        write!(
+            f,
+            "no camera `{}`: the cameras are {}",
+            self.0,
+            names.join(", ")
+        )
+    }
+}
+
+impl std::error::Error for UnknownCamera {}
+
+impl std::str::FromStr for CameraPreset {
+    type Err = UnknownCamera;
+
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        CameraPreset::ALL
+            .into_iter()
+            .find(|c| c.name().eq_ignore_ascii_case(text))
+            .ok_or_else(|| UnknownCamera(text.to_string()))
     }
 }
 
@@ -198,6 +316,48 @@ mod tests {
         assert!((x - cam.cx_px).abs() < 1e-9);
         // Camera tilted up: the direction of travel appears below the image centre.
         assert!(y > cam.cy_px, "y {y}");
+    }
+
+    #[test]
+    fn the_presets_see_the_dvs240s_field_of_view() {
+        let half_fov_deg = |cam: &CameraIntrinsics| {
+            let x = cam.angle_between_deg((cam.cx_px, cam.cy_px), (-0.5, cam.cy_px));
+            let y = cam.angle_between_deg((cam.cx_px, cam.cy_px), (cam.cx_px, -0.5));
+            (x, y)
+        };
+        let reference = half_fov_deg(&CameraIntrinsics::dvs240());
+        for preset in CameraPreset::ALL {
+            let cam = preset.intrinsics();
+            cam.validate().unwrap();
+            let (x, y) = half_fov_deg(&cam);
+            assert!(
+                (x - reference.0).abs() < 0.01,
+                "{preset}: {x} vs {reference:?}"
+            );
+            assert!(
+                (y - reference.1).abs() < 0.1,
+                "{preset}: {y} vs {reference:?}"
+            );
+        }
+        assert_eq!(
+            CameraPreset::Davis240.intrinsics(),
+            CameraIntrinsics::dvs240()
+        );
+        assert_eq!(CameraIntrinsics::dvs240().px_per_dvs240_px(), 1.0);
+        let dvx = CameraIntrinsics::dvxplorer();
+        assert_eq!((dvx.width_px, dvx.height_px, dvx.fx_px), (640, 480, 520.0));
+    }
+
+    #[test]
+    fn camera_names_parse_and_a_wrong_one_names_the_right_ones() {
+        for preset in CameraPreset::ALL {
+            assert_eq!(preset.name().parse::<CameraPreset>(), Ok(preset));
+        }
+        let err = "dvs640".parse::<CameraPreset>().unwrap_err().to_string();
+        assert_eq!(
+            err,
+            "no camera `dvs640`: the cameras are davis240, davis346, dvxplorer, dvxplorer-lite"
+        );
     }
 
     #[test]

@@ -293,6 +293,13 @@ impl Pipeline {
         self.config.flow.max_fits_per_window = max_fits.max(1);
     }
 
+    /// Bounds the events per window that reach the flow (load shedding); never above
+    /// the configured bound, which sized the buffer they are kept in.
+    pub fn set_max_events(&mut self, max_events: usize) {
+        self.config.flow.max_events_per_window =
+            max_events.clamp(1, self.flow.config().max_events_per_window);
+    }
+
     /// Forgets all state, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
         self.flow.reset();
@@ -320,8 +327,9 @@ impl Pipeline {
         };
 
         self.fresh.clear();
-        self.flow.process_window(
+        self.flow.process_window_within(
             events,
+            self.config.flow.max_events_per_window,
             self.config.flow.max_fits_per_window,
             &mut self.fresh,
         );

@@ -3,17 +3,20 @@
 //! bounded) and never fragments a board's memory over a long flight.
 
 use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 use faithd_core::attitude::AttitudeSample;
 use faithd_core::camera::CameraIntrinsics;
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig};
-use faithd_core::synth::{LoomingEdges, looming_edge_events};
+use faithd_core::synth::{LoomingEdges, looming_edge_events_seen_by};
 
 /// Counts allocations (and reallocations) while `COUNTING` is set.
 struct Counting;
 
 static COUNTING: AtomicBool = AtomicBool::new(false);
+/// The counter is the process's: one test counts at a time.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
 
 // A global allocator is an `unsafe` trait by Rust's design: the only way to count
@@ -49,12 +52,55 @@ static GLOBAL: Counting = Counting;
 
 #[test]
 fn a_warmed_up_pipeline_allocates_nothing_per_window() {
-    let cam = CameraIntrinsics::dvs240();
+    let _alone = one_at_a_time();
+    let per_window = run_counted(CameraIntrinsics::dvs240(), PipelineConfig::default());
+    // The pole looms: counted windows hold more vectors than any of the warm-up (2,651
+    // against 2,071), so buffers sized by the number of points must already be sized
+    // for them (`Dbscan::with_capacity`), not merely grown to what came before.
+    assert_looming_and_allocation_free(&per_window);
+}
+
+/// A DVXplorer's 640 x 480 surfaces, and windows over the event cap: the events they
+/// keep go to a buffer sized for the cap up front.
+#[test]
+fn a_dvxplorer_pipeline_over_its_event_cap_allocates_nothing_per_window() {
+    let _alone = one_at_a_time();
+    let cam = CameraIntrinsics::dvxplorer();
+    let mut config = PipelineConfig {
+        camera: cam,
+        ..PipelineConfig::default()
+    };
+    config.flow.max_events_per_window = 6_000;
+    let (per_window, _) = run_counted(cam, config);
+    assert!(
+        per_window.iter().all(|w| w.3 > 0 && w.1 > 300),
+        "every counted window over the cap, with vectors: {per_window:?}"
+    );
+    let allocating: Vec<_> = per_window.iter().filter(|w| w.2 > 0).collect();
+    assert!(
+        allocating.is_empty(),
+        "windows that allocated (t_us, vectors, allocations, skipped): {allocating:?}"
+    );
+}
+
+/// Allocations anywhere in the process count, a failing test's message too: each
+/// test holds this from start to end.
+fn one_at_a_time() -> std::sync::MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Windows 31 to 90 of the looming pole seen by `cam`: (t_us, vectors, allocations,
+/// events skipped), after the first 30 windows warmed the buffers up; and the most
+/// vectors a warm-up window held.
+fn run_counted(
+    cam: CameraIntrinsics,
+    config: PipelineConfig,
+) -> (Vec<(i64, usize, usize, u64)>, usize) {
     let mut scene = LoomingEdges::pole_ahead((130.0, 85.0));
     scene.noise_rate_hz = 0.5;
     scene.jitter_us = 50.0;
     scene.duration_s = 0.9;
-    let events = looming_edge_events(&cam, &scene, 3);
+    let events = looming_edge_events_seen_by(&cam, &scene, 3);
     let attitude: Vec<AttitudeSample> = (0..=60)
         .map(|k| AttitudeSample {
             t_us: k * 20_000,
@@ -66,7 +112,7 @@ fn a_warmed_up_pipeline_allocates_nothing_per_window() {
             yaw_rate_rad_s: 0.0,
         })
         .collect();
-    let mut pipeline = Pipeline::new(PipelineConfig::default());
+    let mut pipeline = Pipeline::new(config);
     let mut start = 0;
     let mut per_window = Vec::new();
     let mut warm_up_vectors = 0;
@@ -79,30 +125,39 @@ fn a_warmed_up_pipeline_allocates_nothing_per_window() {
         COUNTING.store(k > 30, Ordering::Relaxed);
         let report = pipeline.process_window(&events[start..stop], &attitude, end_us, &mut NoClock);
         let vectors = report.vectors.len();
+        let skipped = report.flow_stats.skipped;
         COUNTING.store(false, Ordering::Relaxed);
         if k > 30 {
-            per_window.push((end_us, vectors, ALLOCATIONS.load(Ordering::Relaxed)));
+            per_window.push((
+                end_us,
+                vectors,
+                ALLOCATIONS.load(Ordering::Relaxed),
+                skipped,
+            ));
         } else {
             warm_up_vectors = warm_up_vectors.max(vectors);
         }
         start = stop;
     }
+    (per_window, warm_up_vectors)
+}
+
+fn assert_looming_and_allocation_free(
+    (per_window, warm_up_vectors): &(Vec<(i64, usize, usize, u64)>, usize),
+) {
     assert!(
-        per_window.iter().all(|&(_, v, _)| v > 500),
+        per_window.iter().all(|&(_, v, _, _)| v > 500),
         "{per_window:?}"
     );
-    // The pole looms: counted windows hold more vectors than any of the warm-up (2,651
-    // against 2,071), so buffers sized by the number of points must already be sized
-    // for them (`Dbscan::with_capacity`), not merely grown to what came before.
     assert!(
         per_window
             .iter()
-            .any(|&(_, v, _)| v > warm_up_vectors + 100),
+            .any(|&(_, v, _, _)| v > warm_up_vectors + 100),
         "warm-up up to {warm_up_vectors} vectors: {per_window:?}"
     );
     let allocating: Vec<_> = per_window.iter().filter(|w| w.2 > 0).collect();
     assert!(
         allocating.is_empty(),
-        "windows that allocated (t_us, vectors, allocations): {allocating:?}"
+        "windows that allocated (t_us, vectors, allocations, skipped): {allocating:?}"
     );
 }

@@ -294,13 +294,15 @@ pub fn replay_window_log(
     let mut samples = Vec::new();
     let mut result = LogReplay::default();
     while let Some((line_no, recorded, window)) = log.next_window()? {
-        let max_fits = check_window(&window, &config).map_err(|e| log.error(line_no, e))?;
+        let (max_fits, max_events) =
+            check_window(&window, &config).map_err(|e| log.error(line_no, e))?;
         let taken = events
             .take(window.events)
             .map_err(|e| e.or_short(|short| log.error(line_no, ends_short(&window, short))))?;
         pipeline.set_max_vectors(window.max_vectors);
         pipeline.set_foe_iterations(window.foe_iterations);
         pipeline.set_max_fits(max_fits);
+        pipeline.set_max_events(max_events);
         attitude.window(window.t_us, config.history_us, &mut samples);
         let report = pipeline.process_window(taken, &samples, window.t_us, &mut NoClock);
         watch(taken, &report).map_err(ReplayError::Watch)?;
@@ -319,28 +321,37 @@ pub fn replay_window_log(
 }
 
 /// Refuses a recorded window the configuration could not have produced (load
-/// shedding only ever lowers its limits) or whose time is out of range; its fit
-/// limit otherwise.
-fn check_window(window: &RecordedWindow, config: &PipelineConfig) -> Result<usize, String> {
+/// shedding only ever lowers its limits) or whose time is out of range; its fit and
+/// event limits otherwise.
+fn check_window(
+    window: &RecordedWindow,
+    config: &PipelineConfig,
+) -> Result<(usize, usize), String> {
     let max_fits = window.max_fits.unwrap_or(config.flow.max_fits_per_window);
+    let max_events = window
+        .max_events
+        .unwrap_or(config.flow.max_events_per_window);
     if window.max_vectors > config.max_vectors
         || window.foe_iterations > config.faith.iterations
         || max_fits > config.flow.max_fits_per_window
+        || max_events > config.flow.max_events_per_window
     {
         return Err(format!(
-            "max_vectors {} / foe_iterations {} / max_fits {} exceed the configuration's {} / {} / {}",
+            "max_vectors {} / foe_iterations {} / max_fits {} / max_events {} exceed the configuration's {} / {} / {} / {}",
             window.max_vectors,
             window.foe_iterations,
             max_fits,
+            max_events,
             config.max_vectors,
             config.faith.iterations,
-            config.flow.max_fits_per_window
+            config.flow.max_fits_per_window,
+            config.flow.max_events_per_window
         ));
     }
     if window.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64 {
         return Err(format!("window time {} us beyond +-2^53 us", window.t_us));
     }
-    Ok(max_fits)
+    Ok((max_fits, max_events))
 }
 
 /// Why the events ran out for `window`.

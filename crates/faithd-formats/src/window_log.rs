@@ -85,6 +85,7 @@ pub struct WindowLogLine<'a> {
     pub max_vectors: usize,
     pub foe_iterations: u32,
     pub max_fits: usize,
+    pub max_events: usize,
 }
 
 /// What a replay needs from a recorded line to rerun its window; the rest of the line
@@ -99,6 +100,11 @@ pub struct RecordedWindow {
     /// windows fitted every event).
     #[serde(default)]
     pub max_fits: Option<usize>,
+    /// The event cap in force; absent from logs written before there was one (no
+    /// window of theirs held more events than the configuration's cap: their DVS240
+    /// peaks at 120,000 a window).
+    #[serde(default)]
+    pub max_events: Option<usize>,
 }
 
 /// One decision window, as printed.
@@ -112,6 +118,15 @@ pub struct WindowLine {
     pub clusters: usize,
     pub derotated: bool,
     pub decision: Decision,
+    /// Events left out before the flow: the window held more than its event cap
+    /// (`pipeline.flow.max_events_per_window`, or less under load shedding).
+    /// Printed only when some were.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub skipped_events: u64,
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 pub fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
@@ -135,6 +150,7 @@ impl WindowLine {
             clusters: report.clusters.len(),
             derotated: report.derotation.applied,
             decision: report.decision,
+            skipped_events: report.flow_stats.skipped,
         }
     }
 }

@@ -77,6 +77,17 @@ pub struct FlowConfig {
     /// closed loop on the Atom's factor overrun its budget 160 times and shed on a
     /// third of its cycles (seed 1; 30 and 3 % when the cap counted every event).
     pub max_fits_per_window: usize,
+    /// At most this many events of a window reach the flow at all (surface updates
+    /// and fits): in a busier window the events at evenly spaced places in the window
+    /// are taken (the i-th of n kept is the `i * len / n`-th), the others left out and
+    /// counted (`FlowStats::skipped`). Every event costs a look at the surface even
+    /// when it is refractory (7 to 9 ns on the development machine at 640 x 480), so a
+    /// DVXplorer at the 165 Mev/s it can deliver (1.65 million events a window) would
+    /// take 13 ms of flow per 10 ms window: it would fall behind whatever the fits
+    /// cost. 300,000 (30 Mev/s) costs about 3 ms here and binds on no DVS240 or
+    /// DAVIS346 stream (both peak at 12 Mev/s, 120,000 a window); load shedding lowers
+    /// it further. The buffer of the kept events is sized from it.
+    pub max_events_per_window: usize,
 }
 
 impl Default for FlowConfig {
@@ -93,6 +104,7 @@ impl Default for FlowConfig {
             min_speed_px_s: 2.0,
             max_speed_px_s: 5_000.0,
             max_fits_per_window: 1_000,
+            max_events_per_window: 200_000,
         }
     }
 }
@@ -131,6 +143,16 @@ impl FlowConfig {
             (1..=1_000_000).contains(&f.max_fits_per_window),
             "pipeline.flow.max_fits_per_window",
             || format!("must be 1 to 1000000, got {}", f.max_fits_per_window),
+        )?;
+        check(
+            (1..=4_000_000).contains(&f.max_events_per_window),
+            "pipeline.flow.max_events_per_window",
+            || {
+                format!(
+                    "must be 1 to 4000000 (a buffer is sized from it), got {}",
+                    f.max_events_per_window
+                )
+            },
         )?;
         check(
             f.min_speed_px_s < f.max_speed_px_s,

@@ -12,6 +12,9 @@ const FIT_CAP_SAMPLE: usize = 1024;
 /// Sampled passes below which a window does not update the share of passes that mark.
 const FIT_CAP_MIN_PASSES: u64 = 32;
 
+/// Consecutive events a window over its event cap keeps together.
+const KEPT_RUN: usize = 16;
+
 /// Streaming normal flow: feed events in time order, collect vectors.
 ///
 /// With more than one thread (`with_threads`) the sensor is split into as many
@@ -24,6 +27,11 @@ pub struct NormalFlow {
     /// Of the last capped `process_window` with enough sampled passes: how many of its
     /// events the sample said would pass the refractory filter, and how many did.
     last_window: Option<(u64, u64)>,
+    /// The events a window over its event cap keeps (`process_window_within`),
+    /// sized for `max_events_per_window` up front.
+    kept: Vec<Event>,
+    /// Events left out since the last `take_stats`.
+    skipped: u64,
 }
 
 impl NormalFlow {
@@ -39,6 +47,8 @@ impl NormalFlow {
             tiles: Tiles::new(camera.width_px, camera.height_px, config.radius_px, threads),
             config,
             last_window: None,
+            kept: Vec::with_capacity(config.max_events_per_window),
+            skipped: 0,
         }
     }
 
@@ -63,13 +73,17 @@ impl NormalFlow {
 
     /// Counters since the last `take_stats`.
     pub fn take_stats(&mut self) -> FlowStats {
-        self.tiles.take_stats()
+        FlowStats {
+            skipped: std::mem::take(&mut self.skipped),
+            ..self.tiles.take_stats()
+        }
     }
 
     /// Forgets the surface, e.g. after the camera reconnected.
     pub fn reset(&mut self) {
         self.tiles.clear();
         self.last_window = None;
+        self.skipped = 0;
     }
 
     /// Processes events in order, appending one vector per event that yields a good fit.
@@ -94,6 +108,42 @@ impl NormalFlow {
     /// period together, and a window sized by the quiet one before it fitted 30 times
     /// the cap (2.4 ms of flow at 12 Mev/s, an overrun on the Atom).
     pub fn process_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
+        self.fit_window(events, max_fits, out);
+    }
+
+    /// `process_window` on at most `max_events` of the window's events: a busier
+    /// window keeps the events at evenly spaced places in it (the i-th of the n kept
+    /// is the `i * len / n`-th), a choice that reads none of the others, so leaving
+    /// them out costs nothing per event. The rest are counted as skipped. The same
+    /// events give the same vectors.
+    pub fn process_window_within(
+        &mut self,
+        events: &[Event],
+        max_events: usize,
+        max_fits: usize,
+        out: &mut Vec<FlowVector>,
+    ) {
+        let max_events = max_events.max(1);
+        if events.len() <= max_events {
+            self.fit_window(events, max_fits, out);
+            return;
+        }
+        let mut kept = std::mem::take(&mut self.kept);
+        kept.clear();
+        let (len, n) = (events.len(), max_events);
+        let blocks = n.div_ceil(KEPT_RUN);
+        for b in 0..blocks {
+            let start = b * len / blocks;
+            let take = n * (b + 1) / blocks - n * b / blocks;
+            kept.extend_from_slice(&events[start..start + take]);
+        }
+        self.skipped += (len - n) as u64;
+        self.fit_window(&kept, max_fits, out);
+        self.kept = kept;
+    }
+
+    /// `process_window`'s work (see there).
+    fn fit_window(&mut self, events: &[Event], max_fits: usize, out: &mut Vec<FlowVector>) {
         let max_fits = max_fits.max(1) as u64;
         if events.len() as u64 <= max_fits {
             // Every event may be fitted, whatever passes; the share of passes that
@@ -292,6 +342,49 @@ mod tests {
                 Event::new(t_us, (i % 240) as u16, (i / 240) as u16, Polarity::On)
             })
             .collect()
+    }
+
+    /// A window over its event cap keeps exactly the cap's worth, in runs spread from
+    /// its start to its end, and counts the others; a window within it keeps all.
+    #[test]
+    fn a_window_over_its_event_cap_keeps_evenly_spaced_runs() {
+        let cam = CameraIntrinsics::dvs240();
+        let events = every_pixel(0, 10_000);
+        let (len, cap) = (events.len(), 10_000);
+        let mut flow = NormalFlow::new(&cam, FlowConfig::default());
+        let mut out = Vec::new();
+        flow.process_window_within(&events, cap, 1_000, &mut out);
+        let stats = flow.take_stats();
+        assert_eq!(
+            (stats.events, stats.skipped),
+            (cap as u64, (len - cap) as u64)
+        );
+        // The same as the runs fed by hand: 16 events from every 1/625th of the window.
+        let blocks = cap.div_ceil(KEPT_RUN);
+        let kept: Vec<Event> = (0..blocks)
+            .flat_map(|b| {
+                let start = b * len / blocks;
+                events[start..start + cap * (b + 1) / blocks - cap * b / blocks].to_vec()
+            })
+            .collect();
+        assert_eq!(kept.len(), cap);
+        assert_eq!(kept[0], events[0]);
+        assert!(kept[cap - 1].t_us > 9_900, "{:?}", kept[cap - 1]);
+        let mut by_hand = NormalFlow::new(&cam, FlowConfig::default());
+        let mut expected = Vec::new();
+        by_hand.process_window(&kept, 1_000, &mut expected);
+        assert_eq!(out, expected);
+        assert_eq!(
+            by_hand.take_stats(),
+            FlowStats {
+                skipped: 0,
+                ..stats
+            }
+        );
+        // Within the cap nothing is left out.
+        out.clear();
+        flow.process_window_within(&every_pixel(300_000, 10_000), len, 1_000, &mut out);
+        assert_eq!(flow.take_stats().skipped, 0);
     }
 
     /// Plane fits a window tried: events that marked their pixel and were chosen.

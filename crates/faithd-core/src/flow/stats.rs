@@ -19,4 +19,7 @@ pub struct FlowStats {
     /// Events that only updated the surface (in view, not refractory): the window
     /// had more events than fits.
     pub not_fitted: u64,
+    /// Events of the window left out before the flow (not counted in `events`): it
+    /// had more than `max_events_per_window`.
+    pub skipped: u64,
 }

@@ -76,6 +76,39 @@ pub fn looming_edge_events(
     scene: &LoomingEdges,
     seed: u64,
 ) -> Vec<Event> {
+    render(camera, scene, 1.0, seed)
+}
+
+/// All events of a scene laid out in the DVS240 preset's pixels, as `camera` (with
+/// the same field of view, say a DVXplorer) sees it: the FOE, the rectangles and the
+/// edges' offsets scaled about the principal point by the ratio of focal lengths,
+/// with the same draws. Every edge then crosses the same directions at the same
+/// times, over `px_per_dvs240_px()` squared as many pixels. The DVS240 preset gets
+/// `looming_edge_events` itself.
+pub fn looming_edge_events_seen_by(
+    camera: &CameraIntrinsics,
+    scene: &LoomingEdges,
+    seed: u64,
+) -> Vec<Event> {
+    let reference = CameraIntrinsics::dvs240();
+    if *camera == reference {
+        return looming_edge_events(camera, scene, seed);
+    }
+    let scale = camera.px_per_dvs240_px();
+    let x = |x_px: f64| (x_px - reference.cx_px) * scale + camera.cx_px;
+    let y = |y_px: f64| (y_px - reference.cy_px) * scale + camera.cy_px;
+    let mut seen = scene.clone();
+    seen.foe_px = (x(scene.foe_px.0), y(scene.foe_px.1));
+    for layer in &mut seen.layers {
+        layer.rect_px = layer
+            .rect_px
+            .map(|(x0, y0, x1, y1)| (x(x0), y(y0), x(x1), y(y1)));
+    }
+    render(camera, &seen, scale, seed)
+}
+
+/// The scene's events with the edges' offsets (drawn in 1..150 px) times `px_scale`.
+fn render(camera: &CameraIntrinsics, scene: &LoomingEdges, px_scale: f64, seed: u64) -> Vec<Event> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let duration_us = scene.duration_s * 1e6;
     let (fx, fy) = scene.foe_px;
@@ -90,7 +123,7 @@ pub fn looming_edge_events(
                         nx: math::cos(angle),
                         ny: math::sin(angle),
                         // Offsets such that edges keep entering the view during the run.
-                        d0_px: rng.random_range(1.0..150.0),
+                        d0_px: rng.random_range(1.0..150.0) * px_scale,
                         polarity: Polarity::from_bool(rng.random_bool(0.5)),
                     }
                 })
@@ -187,6 +220,37 @@ mod tests {
         let early: f64 = events[..half].iter().map(dist).sum::<f64>() / half as f64;
         let late: f64 = events[half..].iter().map(dist).sum::<f64>() / (events.len() - half) as f64;
         assert!(late > early, "early {early} late {late}");
+    }
+
+    #[test]
+    fn a_finer_camera_sees_the_same_edges_at_the_same_times() {
+        let mut scene = LoomingEdges::pole_ahead((130.0, 85.0));
+        scene.duration_s = 0.2;
+        let dvs = CameraIntrinsics::dvs240();
+        let coarse = looming_edge_events_seen_by(&dvs, &scene, 4);
+        assert_eq!(coarse, looming_edge_events(&dvs, &scene, 4));
+        let dvx = CameraIntrinsics::dvxplorer();
+        let fine = looming_edge_events_seen_by(&dvx, &scene, 4);
+        // (640 x 480) / (240 x 180) = 7.1 times the pixels: the edges sweep that many.
+        let ratio = fine.len() as f64 / coarse.len() as f64;
+        assert!((5.5..8.5).contains(&ratio), "{ratio}");
+        // The same directions from the centre at the same times: mean time and mean
+        // normalised position agree.
+        let mean = |cam: &CameraIntrinsics, events: &[Event]| {
+            let n = events.len() as f64;
+            let (mut t, mut x, mut y) = (0.0, 0.0, 0.0);
+            for e in events {
+                let (xn, yn) = cam.normalise(f64::from(e.x_px), f64::from(e.y_px));
+                (t, x, y) = (t + e.t_us as f64 / n, x + xn / n, y + yn / n);
+            }
+            (t, x, y)
+        };
+        let (a, b) = (mean(&dvs, &coarse), mean(&dvx, &fine));
+        assert!((a.0 - b.0).abs() < 0.05 * a.0, "{a:?} {b:?}");
+        assert!(
+            (a.1 - b.1).abs() < 0.02 && (a.2 - b.2).abs() < 0.02,
+            "{a:?} {b:?}"
+        );
     }
 
     #[test]

@@ -10,4 +10,4 @@ pub mod looming_edges;
 
 pub use cluster_features::pipeline_shaped_features;
 pub use flow_field::{FlowFieldSpec, radial_normal_flow};
-pub use looming_edges::{Layer, LoomingEdges, looming_edge_events};
+pub use looming_edges::{Layer, LoomingEdges, looming_edge_events, looming_edge_events_seen_by};

@@ -25,7 +25,7 @@ pub const ATOM_X5_Z8350_SCALE: f64 = 7.0;
 /// constant and its per-count costs, nanoseconds.
 pub const TERMS: [(&str, Stage); 13] = [
     ("flow: per window", Stage::Flow),
-    ("flow: per event", Stage::Flow),
+    ("flow: per event (that reached the flow)", Stage::Flow),
     ("flow: per plane fit", Stage::Flow),
     ("derotation: per window", Stage::Derotate),
     ("derotation: per new vector", Stage::Derotate),
@@ -77,7 +77,7 @@ pub fn features(w: &Work) -> [f64; 13] {
     let n = w.clustered as f64;
     [
         1.0,
-        w.events as f64,
+        (w.events - w.skipped) as f64,
         w.fits as f64,
         1.0,
         w.new_vectors as f64,
@@ -254,6 +254,7 @@ mod tests {
     fn work(events: usize, vectors: usize, clustered: usize) -> Work {
         Work {
             events,
+            skipped: 0,
             fits: events * 9 / 10,
             new_vectors: vectors / 5,
             history_vectors: vectors,

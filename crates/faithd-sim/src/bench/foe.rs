@@ -15,7 +15,7 @@ use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
 use crate::world::{DvsConfig, ImuConfig, SceneKind, Trajectory, simulate};
-use faithd_core::camera::CameraIntrinsics;
+use faithd_core::camera::{CameraIntrinsics, CameraPreset};
 use faithd_core::derotate::{DerotationConfig, Derotator};
 use faithd_core::flow::{FlowConfig, FlowVector, NormalFlow};
 use faithd_core::foe::{
@@ -41,6 +41,12 @@ pub struct BenchFoeOptions {
     /// Add body rotation (yaw and pitch oscillations) to every third flight, so
     /// derotation is exercised. The paper's benchmark flew without rotation.
     pub rotation: bool,
+    /// The camera flown: the same flights and scenes whatever it is (every preset
+    /// has the DVS240's field of view), rendered at its size.
+    pub camera: CameraPreset,
+    /// At most this many (newest) vectors of the history, as the pipeline's
+    /// `max_vectors` (3000); `None` gives the methods the whole history.
+    pub max_vectors: Option<usize>,
 }
 
 impl Default for BenchFoeOptions {
@@ -60,6 +66,8 @@ impl Default for BenchFoeOptions {
                 ("faith_paper".to_string(), FaithConfig::paper()),
             ],
             rotation: false,
+            camera: CameraPreset::Davis240,
+            max_vectors: None,
         }
     }
 }
@@ -100,6 +108,10 @@ pub struct TrajectoryResult {
 pub struct BenchFoeReport {
     pub trajectories: usize,
     pub seed: u64,
+    pub camera: CameraPreset,
+    pub width_px: u16,
+    pub height_px: u16,
+    pub max_vectors: Option<usize>,
     pub methods: Vec<MethodResult>,
     pub windows: usize,
     pub per_trajectory: Vec<TrajectoryResult>,
@@ -228,7 +240,7 @@ fn run_flight(
     options: &BenchFoeOptions,
     methods: &mut [(String, Box<dyn FoeEstimator>)],
 ) -> FlightOutcome {
-    let camera = CameraIntrinsics::dvs240();
+    let camera = options.camera.intrinsics();
     let flight_seed = faithd_core::pipeline::window_seed(options.seed, index as i64);
     let scene = flight.scene.build(flight_seed);
     let run = simulate(
@@ -244,8 +256,6 @@ fn run_flight(
     let mut vectors: Vec<FlowVector> = Vec::new();
     flow.process(&run.events, &mut vectors);
     Derotator::new(camera, DerotationConfig::default()).derotate_all(&mut vectors, &run.attitude);
-    // Every method gets what the pipeline gives its FOE estimator: the tight vectors.
-    vectors.retain(|v| v.tight);
 
     let end_us = (options.duration_s * 1e6) as i64;
     let first_us = options.history_us * 2;
@@ -254,9 +264,7 @@ fn run_flight(
     let mut example = None;
     for w in 0..options.windows {
         let t_us = first_us + step_us * (w as i64 + 1);
-        let lo = vectors.partition_point(|v| v.t_us < t_us - options.history_us);
-        let hi = vectors.partition_point(|v| v.t_us < t_us);
-        let window = &vectors[lo..hi];
+        let window = &foe_input(&vectors, t_us, options)[..];
         let Some(truth) = run.truth_at(t_us - options.history_us / 2) else {
             continue;
         };
@@ -315,6 +323,21 @@ fn run_flight(
     (result, samples, example)
 }
 
+/// What the pipeline gives its FOE estimator at `t_us`: the tight vectors of the
+/// history (of its newest `max_vectors` with a cap).
+fn foe_input(vectors: &[FlowVector], t_us: i64, options: &BenchFoeOptions) -> Vec<FlowVector> {
+    let mut lo = vectors.partition_point(|v| v.t_us < t_us - options.history_us);
+    let hi = vectors.partition_point(|v| v.t_us < t_us);
+    if let Some(cap) = options.max_vectors {
+        lo = lo.max(hi.saturating_sub(cap));
+    }
+    vectors[lo..hi]
+        .iter()
+        .filter(|v| v.tight)
+        .copied()
+        .collect()
+}
+
 fn mean(values: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
     if n == 0 { f64::NAN } else { sum / n as f64 }
@@ -333,7 +356,7 @@ pub fn run(
     options: &BenchFoeOptions,
     progress: &(dyn Fn(usize, &TrajectoryResult) + Sync),
 ) -> BenchFoeReport {
-    let camera = CameraIntrinsics::dvs240();
+    let camera = options.camera.intrinsics();
     let flights = plan_flights(options.trajectories, options.seed, options.rotation);
     let names: Vec<String> = estimators(camera, options)
         .into_iter()
@@ -403,6 +426,10 @@ pub fn run(
     BenchFoeReport {
         trajectories: options.trajectories,
         seed: options.seed,
+        camera: options.camera,
+        width_px: camera.width_px,
+        height_px: camera.height_px,
+        max_vectors: options.max_vectors,
         methods,
         windows,
         per_trajectory: results.into_iter().map(|(t, _, _)| t).collect(),
@@ -414,8 +441,8 @@ impl BenchFoeReport {
     /// The Table-I-like text table.
     pub fn table(&self) -> String {
         let mut s = format!(
-            "FOE benchmark: {} trajectories, {} windows, seed {}\n",
-            self.trajectories, self.windows, self.seed
+            "FOE benchmark: {} trajectories, {} windows, seed {}, {} ({} x {} px)\n",
+            self.trajectories, self.windows, self.seed, self.camera, self.width_px, self.height_px
         );
         s += &format!(
             "{:<20} {:>22} {:>30} {:>7}\n",

@@ -6,8 +6,9 @@ use std::path::PathBuf;
 use clap::Args;
 
 use faithd::config::FaithdConfig;
-use faithd::orchestrate::bench_pipeline::{self, Streams};
+use faithd::orchestrate::bench_pipeline::{self, BenchCamera, Streams};
 use faithd::orchestrate::{bench_compute, bench_foe};
+use faithd_core::camera::CameraPreset;
 
 use super::world::{WorldArgs, parse_cpu_scale};
 use crate::Failure;
@@ -34,6 +35,15 @@ pub struct BenchFoeArgs {
     /// Also fly every third trajectory with body rotation (exercises derotation).
     #[arg(long)]
     rotation: bool,
+    /// The camera flown (the same flights and scenes, rendered at its size; all
+    /// with the DAVIS240's field of view): davis240, davis346, dvxplorer or
+    /// dvxplorer-lite.
+    #[arg(long, default_value = "davis240", value_parser = parse_camera)]
+    camera: CameraPreset,
+    /// Give the methods at most this many (newest) vectors of the history, as the
+    /// pipeline's `max_vectors` does (default: the whole 50 ms history).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(50..))]
+    max_vectors: Option<u32>,
 }
 
 /// `faithd bench pipeline`.
@@ -55,9 +65,20 @@ pub struct BenchPipelineArgs {
     /// The pipeline settings (`[pipeline]` and `[daemon]` of a faithd.toml).
     #[arg(long)]
     config: Option<PathBuf>,
+    /// The camera the streams are seen by (its size and intrinsics, all with the
+    /// DAVIS240's field of view): davis240, davis346, dvxplorer or dvxplorer-lite.
+    /// Default: the configuration's camera (a DAVIS240 without --config).
+    #[arg(long, value_parser = parse_camera)]
+    camera: Option<CameraPreset>,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
+}
+
+/// `--camera`: a preset's name; a wrong one is refused with the names there are.
+pub fn parse_camera(text: &str) -> Result<CameraPreset, String> {
+    text.parse()
+        .map_err(|e: faithd_core::camera::UnknownCamera| e.to_string())
 }
 
 /// `faithd bench compute`.
@@ -81,6 +102,8 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
         trajectories: args.trajectories as usize,
         seed: args.seed,
         rotation: args.rotation,
+        camera: args.camera,
+        max_vectors: args.max_vectors.map(|n| n as usize),
         ..Default::default()
     };
     if let Some(t) = args.threads {
@@ -122,9 +145,11 @@ pub fn bench_pipeline(args: &BenchPipelineArgs) -> Result<(), Failure> {
         },
     };
     let progress = progress_bar(streams.names().len() as u64, "streams");
+    let camera = BenchCamera::resolve(args.camera, config.pipeline.camera);
     let bench = bench_pipeline::run(
         &streams,
         (config.pipeline, config.daemon),
+        camera,
         args.cpu_scale,
         || progress.inc(1),
     )?;
