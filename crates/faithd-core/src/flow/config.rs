@@ -78,15 +78,19 @@ pub struct FlowConfig {
     /// third of its cycles (seed 1; 30 and 3 % when the cap counted every event).
     pub max_fits_per_window: usize,
     /// At most this many events of a window reach the flow at all (surface updates
-    /// and fits): in a busier window the events at evenly spaced places in the window
-    /// are taken (the i-th of n kept is the `i * len / n`-th), the others left out and
-    /// counted (`FlowStats::skipped`). Every event costs a look at the surface even
-    /// when it is refractory (7 to 9 ns on the development machine at 640 x 480), so a
-    /// DVXplorer at the 165 Mev/s it can deliver (1.65 million events a window) would
-    /// take 13 ms of flow per 10 ms window: it would fall behind whatever the fits
-    /// cost. 300,000 (30 Mev/s) costs about 3 ms here and binds on no DVS240 or
-    /// DAVIS346 stream (both peak at 12 Mev/s, 120,000 a window); load shedding lowers
-    /// it further. The buffer of the kept events is sized from it.
+    /// and fits): a busier window keeps runs of consecutive events at evenly spaced
+    /// places in it (`NormalFlow::process_window_within`), the others are left out
+    /// and counted (`FlowStats::skipped`). Every event costs a look at the surface
+    /// even when it is refractory, and at 640 x 480 that look misses the cache (10 to
+    /// 20 ns on the development machine), so a DVXplorer at the 165 Mev/s it can
+    /// deliver over USB (iniVation,
+    /// <https://docs.inivation.com/hardware/current-products/dvxplorer.html>; 1.65
+    /// million events a window) took 12.5 ms of flow per 10 ms window whatever the
+    /// fits cost. 200,000 (20 Mev/s) keeps that window within 3 ms at the median here
+    /// and binds on no DVS240 or DAVIS346 stream (both peak at 12 Mev/s, 120,000 a
+    /// window); load shedding lowers it once the other limits are at their floors.
+    /// The buffer of the kept events is sized from it. docs/performance.md, "At the
+    /// sizes of the cameras on sale".
     pub max_events_per_window: usize,
 }
 

@@ -40,8 +40,9 @@ pub struct DaemonConfig {
     pub shed_min_vectors: usize,
     pub shed_min_iterations: u32,
     pub shed_min_fits: usize,
-    /// ...and the events per window that reach the flow: 30,000 (3 Mev/s), a quarter
-    /// of a DVS240's peak, which the paper's Atom runs through in about 2 ms.
+    /// ...and the events per window that reach the flow, halved only once the three
+    /// above are at their floors: 30,000 (3 Mev/s), a quarter of a DVS240's peak,
+    /// whose flow costs 2 to 7 ms at the Atom's factor (240 x 180 to 640 x 480).
     pub shed_min_events: usize,
     /// No event batch for this long: the camera is gone, the pipeline unhealthy.
     pub event_stale_us: i64,
