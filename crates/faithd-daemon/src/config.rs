@@ -13,10 +13,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::command::CommandConfig;
 use crate::cycle::DaemonConfig;
-use crate::link::MavlinkConfig;
 use crate::link::ground::GroundConfig;
+use crate::link::{MavlinkConfig, TelemetryConfig};
 use crate::record::RecordConfig;
 use crate::source::SourceConfig;
+use crate::transport::Endpoint;
 use faithd_core::invalid::check;
 use faithd_core::pipeline::PipelineConfig;
 use faithd_core::safety::gate::GateConfig;
@@ -27,6 +28,9 @@ use faithd_core::safety::manoeuvre::ManoeuvreConfig;
 #[serde(deny_unknown_fields, default)]
 pub struct FaithdConfig {
     pub pipeline: PipelineConfig,
+    /// Where the autopilot is read: iNav's MAVLink on `[mavlink]` (the default), or
+    /// a second MSP port for the boards without MAVLink.
+    pub telemetry: TelemetryConfig,
     pub mavlink: MavlinkConfig,
     pub gate: GateConfig,
     pub manoeuvre: ManoeuvreConfig,
@@ -114,19 +118,51 @@ impl FaithdConfig {
         validate_camera_size(self)?;
         self.record.validate()?;
         self.ground.validate()?;
+        if let TelemetryConfig::Msp(t) = &self.telemetry {
+            t.validate()?;
+        }
+        let telemetry_key = self.telemetry_key();
         check(
-            self.command.msp_port().address != self.mavlink.endpoint,
+            self.command.msp_port().address != self.autopilot_port().address,
             "command.sink.endpoint",
-            || "must be a different port from mavlink.endpoint".into(),
+            || {
+                format!(
+                    "must be a different port from {telemetry_key}: iNav serves one MSP command per port every 10 ms and the roll stream uses half of that"
+                )
+            },
+        )?;
+        check(
+            !(self.telemetry.is_msp() && self.ground.forward_to_autopilot),
+            "ground.forward_to_autopilot",
+            || {
+                "needs MAVLink to the autopilot: with [telemetry] kind = \"msp\" there is none"
+                    .into()
+            },
         )?;
         let ground = self.ground.endpoint.as_ref();
         check(
             ground.is_none_or(|g| {
-                *g != self.mavlink.endpoint && *g != self.command.msp_port().address
+                *g != self.autopilot_port().address && *g != self.command.msp_port().address
             }),
             "ground.endpoint",
-            || "must be a port of its own, not mavlink.endpoint or command.sink.endpoint".into(),
+            || format!("must be a port of its own, not {telemetry_key} or command.sink.endpoint"),
         )
+    }
+
+    /// The port the autopilot's telemetry comes in on.
+    pub fn autopilot_port(&self) -> Endpoint {
+        match &self.telemetry {
+            TelemetryConfig::Mavlink => self.mavlink.port(),
+            TelemetryConfig::Msp(t) => t.port(),
+        }
+    }
+
+    /// The key naming that port.
+    fn telemetry_key(&self) -> &'static str {
+        match self.telemetry {
+            TelemetryConfig::Mavlink => "mavlink.endpoint",
+            TelemetryConfig::Msp(_) => "telemetry.endpoint",
+        }
     }
 }
 

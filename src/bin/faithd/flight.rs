@@ -226,7 +226,8 @@ pub fn check_fc(args: &CheckFcArgs) -> Result<(), Failure> {
         &config.gate,
         &config.command,
         config.mavlink.autopilot_system_id,
-    );
+    )
+    .with_telemetry_over_msp(config.telemetry.is_msp());
     if !args.no_cli && !args.json {
         println!(
             "reading rxrange in iNav's CLI: the flight controller reboots when the check leaves it (--no-cli skips this)"

@@ -70,7 +70,8 @@ pub fn stream_settings(config: &FaithdConfig) -> StreamSettings {
             &config.gate,
             &config.command,
             config.mavlink.autopilot_system_id,
-        ),
+        )
+        .with_telemetry_over_msp(config.telemetry.is_msp()),
         roll_rxrange: config.command.roll_rxrange_us,
         hold_bound: us(config.pipeline.decision.roll_duration_us + HOLD_MARGIN_US),
     }

@@ -92,21 +92,29 @@ pub struct FcSettings {
     pub msp_override_channels: u32,
     pub failsafe_delay_ds: u8,
     pub failsafe_recovery_delay_ds: u8,
-    pub mavlink_extra1_rate: u8,
-    pub mavlink_rc_chan_rate: u8,
-    /// SYS_STATUS, whose RC receiver bit says the pilot's radio is lost.
-    pub mavlink_ext_status_rate: u8,
-    pub mavlink_sysid: u8,
+    /// iNav's MAVLink settings; `None` when the build has none (iNav after 9.1 on
+    /// boards with 512 KB of flash or less).
+    pub mavlink: Option<MavlinkSettings>,
     /// Radio channel (0-based) feeding iNav's roll, pitch, yaw, throttle.
     pub rcmap: [u8; 4],
     pub modes: Vec<ModeRange>,
-    /// MAVLink version iNav speaks (1 sends RC_CHANNELS_RAW, which faithd does not read).
-    pub mavlink_version: u8,
     /// MSP_BOXIDS: the modes this build offers, in the order of the status bits.
     pub box_ids: Vec<u8>,
     /// `rxrange` of roll, read in iNav's CLI (no MSP command reports it); `None`
     /// when not read (the daemon never enters the CLI: leaving it reboots iNav).
     pub roll_rxrange: Option<(u16, u16)>,
+}
+
+/// iNav's MAVLink telemetry settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MavlinkSettings {
+    pub extra1_rate: u8,
+    pub rc_chan_rate: u8,
+    /// SYS_STATUS, whose RC receiver bit says the pilot's radio is lost.
+    pub ext_status_rate: u8,
+    pub sysid: u8,
+    /// MAVLink version iNav speaks (1 sends RC_CHANNELS_RAW, which faithd does not read).
+    pub version: u8,
 }
 
 /// Where MSP2_INAV_STATUS keeps the bits faithd reads.
@@ -166,6 +174,9 @@ pub struct Expectations {
     pub roll_rxrange: RxRange,
     /// The longest iNav may keep faithd's last value after faithd stops.
     pub max_hold_after_stop_us: i64,
+    /// faithd reads the autopilot over a second MSP port (`[telemetry] kind =
+    /// "msp"`): iNav's MAVLink settings do not matter.
+    pub telemetry_over_msp: bool,
 }
 
 impl Expectations {
@@ -181,6 +192,15 @@ impl Expectations {
             autopilot_system_id,
             roll_rxrange: command.roll_rxrange_us,
             max_hold_after_stop_us: command.max_hold_after_stop_us,
+            telemetry_over_msp: false,
+        }
+    }
+
+    /// The same, for a faithd that reads the autopilot over MSP (`over_msp`).
+    pub fn with_telemetry_over_msp(self, over_msp: bool) -> Self {
+        Self {
+            telemetry_over_msp: over_msp,
+            ..self
         }
     }
 }
@@ -209,7 +229,8 @@ pub struct RouteFacts {
     /// notices, then 200 ms + failsafe_delay): the bound on a roll outliving a killed
     /// faithd.
     pub hold_after_stop_us: i64,
-    /// Worst period of ATTITUDE and RC_CHANNELS at the configured rates.
+    /// Worst period of ATTITUDE and RC_CHANNELS at the configured rates (0 when
+    /// faithd reads them over MSP, or the build has no MAVLink).
     pub attitude_period_us: i64,
     pub rc_period_us: i64,
     /// How to read iNav's status (armed, failsafe, override mode) over MSP.
@@ -258,29 +279,38 @@ pub fn mavlink_stream_period_us(rate: u8) -> Option<i64> {
 /// One check of the set-up: pure, one report line.
 type Check = fn(&FcSettings, &Expectations) -> CheckItem;
 
-/// Every check, in the order the report lists them.
-const CHECKS: [Check; 15] = [
+/// The checks of the pilot's side and the route, in the order the report lists them;
+/// the telemetry's come after the first six ([`telemetry_checks`]).
+const CHECKS: [Check; 10] = [
     check_firmware,
     check_receiver,
     check_override_channels,
     check_override_mode,
     check_arm_switch,
     check_angle,
-    check_attitude_rate,
-    check_rc_rate,
-    check_sys_status_rate,
-    check_system_id,
-    check_mavlink_version,
     check_override_in_build,
     check_channel_map,
     check_failsafe_delays,
     check_roll_calibration,
 ];
 
-/// Judges the set-up: every check in [`CHECKS`], and the route's figures when all
-/// pass. Pure.
+/// One check of iNav's MAVLink telemetry.
+type MavlinkCheck = fn(&MavlinkSettings, &Expectations) -> CheckItem;
+
+const MAVLINK_CHECKS: [MavlinkCheck; 5] = [
+    check_attitude_rate,
+    check_rc_rate,
+    check_sys_status_rate,
+    check_system_id,
+    check_mavlink_version,
+];
+
+/// Judges the set-up: every check in [`CHECKS`] and the telemetry's, and the
+/// route's figures when all pass. Pure.
 pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
-    let items: Vec<CheckItem> = CHECKS.iter().map(|check| check(s, want)).collect();
+    let mut items: Vec<CheckItem> = CHECKS.iter().map(|check| check(s, want)).collect();
+    let after_angle = items.len() - 4;
+    items.splice(after_angle..after_angle, telemetry_checks(s, want));
     let passed = items.iter().all(|i| i.problem.is_none());
     FcReport {
         route: route_facts(s).filter(|_| passed),
@@ -290,27 +320,43 @@ pub fn evaluate(s: &FcSettings, want: &Expectations) -> FcReport {
 
 /// The figures the stream and the gate use, when this build offers the override.
 fn route_facts(s: &FcSettings) -> Option<RouteFacts> {
-    let msp_override = mode_bit(s, MODE_MSP_RC_OVERRIDE)?;
+    let status_bits = status_bits(&s.box_ids)?;
     Some(RouteFacts {
         roll_frame_index: usize::from(s.rcmap[0]),
         warmup_us: warmup_us(s),
         hold_after_stop_us: hold_after_stop_us(s),
-        attitude_period_us: mavlink_stream_period_us(s.mavlink_extra1_rate).unwrap_or(0),
-        rc_period_us: mavlink_stream_period_us(s.mavlink_rc_chan_rate).unwrap_or(0),
-        status_bits: StatusBits {
-            failsafe: mode_bit(s, MODE_FAILSAFE),
-            msp_override,
-            angle: mode_bit(s, MODE_ANGLE),
-        },
+        attitude_period_us: s
+            .mavlink
+            .and_then(|m| mavlink_stream_period_us(m.extra1_rate))
+            .unwrap_or(0),
+        rc_period_us: s
+            .mavlink
+            .and_then(|m| mavlink_stream_period_us(m.rc_chan_rate))
+            .unwrap_or(0),
+        status_bits,
     })
 }
 
 /// The bit of mode `id` in MSP2_INAV_STATUS: its position among the build's box ids.
 fn mode_bit(s: &FcSettings, id: u8) -> Option<u8> {
-    s.box_ids
+    box_bit(&s.box_ids, id)
+}
+
+fn box_bit(box_ids: &[u8], id: u8) -> Option<u8> {
+    box_ids
         .iter()
         .position(|b| *b == id)
         .and_then(|i| u8::try_from(i).ok())
+}
+
+/// Where MSP2_INAV_STATUS keeps the bits faithd reads, from MSP_BOXIDS; `None` when
+/// the build has no MSP RC OVERRIDE mode.
+pub fn status_bits(box_ids: &[u8]) -> Option<StatusBits> {
+    Some(StatusBits {
+        failsafe: box_bit(box_ids, MODE_FAILSAFE),
+        msp_override: box_bit(box_ids, MODE_MSP_RC_OVERRIDE)?,
+        angle: box_bit(box_ids, MODE_ANGLE),
+    })
 }
 
 /// Fresh frames iNav needs before it applies the override.
@@ -560,9 +606,31 @@ fn rate_item(
     )
 }
 
-fn check_attitude_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
+/// Over MSP the telemetry is faithd's to ask, and iNav's MAVLink does not matter;
+/// over MAVLink the build must have it, at the rates the gate needs.
+fn telemetry_checks(s: &FcSettings, want: &Expectations) -> Vec<CheckItem> {
+    if want.telemetry_over_msp {
+        return vec![item(
+            "telemetry",
+            "read over MSP on a port of its own (telemetry.endpoint): the gyro every 40 ms, the channels every 80 ms, the status every 120 ms".into(),
+            None,
+            None,
+        )];
+    }
+    let Some(m) = &s.mavlink else {
+        return vec![item(
+            "telemetry",
+            "this build has no MAVLink (iNav after 9.1 on a board with 512 KB of flash or less)".into(),
+            Some("faithd is set to read iNav's MAVLink telemetry ([telemetry] kind = \"mavlink\")".into()),
+            Some("in faithd.toml: [telemetry] kind = \"msp\" with the endpoint of a second MSP port (hil/inav/faithd-msp.cli sets one up)".into()),
+        )];
+    };
+    MAVLINK_CHECKS.iter().map(|check| check(m, want)).collect()
+}
+
+fn check_attitude_rate(s: &MavlinkSettings, want: &Expectations) -> CheckItem {
     let (found, problem, fix) = rate_item(
-        s.mavlink_extra1_rate,
+        s.extra1_rate,
         want.attitude_stale_us,
         "gate.attitude_stale_us",
         "mavlink_extra1_rate",
@@ -570,9 +638,9 @@ fn check_attitude_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
     item("ATTITUDE rate", found, problem, fix)
 }
 
-fn check_rc_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
+fn check_rc_rate(s: &MavlinkSettings, want: &Expectations) -> CheckItem {
     let (found, problem, fix) = rate_item(
-        s.mavlink_rc_chan_rate,
+        s.rc_chan_rate,
         want.rc_stale_us,
         "gate.rc_stale_us",
         "mavlink_rc_chan_rate",
@@ -581,15 +649,15 @@ fn check_rc_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
 }
 
 /// SYS_STATUS as often as RC_CHANNELS must be fresh: it says the radio is lost.
-fn check_sys_status_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
-    let status_period = mavlink_stream_period_us(s.mavlink_ext_status_rate);
+fn check_sys_status_rate(s: &MavlinkSettings, want: &Expectations) -> CheckItem {
+    let status_period = mavlink_stream_period_us(s.ext_status_rate);
     let status_slow = status_period.is_none_or(|p| p + MAVLINK_TICK_US > want.rc_stale_us);
     item(
         "SYS_STATUS rate",
         match status_period {
             Some(p) => format!(
                 "mavlink_ext_status_rate = {}: one every {} ms",
-                s.mavlink_ext_status_rate,
+                s.ext_status_rate,
                 p / 1000
             ),
             None => "mavlink_ext_status_rate = 0: not sent".into(),
@@ -604,11 +672,11 @@ fn check_sys_status_rate(s: &FcSettings, want: &Expectations) -> CheckItem {
     )
 }
 
-fn check_system_id(s: &FcSettings, want: &Expectations) -> CheckItem {
-    let sysid_wrong = s.mavlink_sysid != want.autopilot_system_id;
+fn check_system_id(s: &MavlinkSettings, want: &Expectations) -> CheckItem {
+    let sysid_wrong = s.sysid != want.autopilot_system_id;
     item(
         "MAVLink system id",
-        format!("mavlink_sysid = {}", s.mavlink_sysid),
+        format!("mavlink_sysid = {}", s.sysid),
         sysid_wrong.then(|| {
             format!(
                 "faithd listens to system {} (mavlink.autopilot_system_id)",
@@ -624,11 +692,11 @@ fn check_system_id(s: &FcSettings, want: &Expectations) -> CheckItem {
     )
 }
 
-fn check_mavlink_version(s: &FcSettings, _: &Expectations) -> CheckItem {
-    let v1 = s.mavlink_version != 2;
+fn check_mavlink_version(s: &MavlinkSettings, _: &Expectations) -> CheckItem {
+    let v1 = s.version != 2;
     item(
         "MAVLink version",
-        format!("mavlink_version = {}", s.mavlink_version),
+        format!("mavlink_version = {}", s.version),
         v1.then(|| "faithd reads RC_CHANNELS, which iNav sends only with MAVLink 2 (version 1 sends RC_CHANNELS_RAW)".into()),
         v1.then(|| "set mavlink_version = 2".into()),
     )
@@ -824,11 +892,7 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
     let msp_override_channels = setting("msp_override_channels").await?;
     let failsafe_delay_ds = setting("failsafe_delay").await? as u8;
     let failsafe_recovery_delay_ds = setting("failsafe_recovery_delay").await? as u8;
-    let mavlink_extra1_rate = setting("mavlink_extra1_rate").await? as u8;
-    let mavlink_rc_chan_rate = setting("mavlink_rc_chan_rate").await? as u8;
-    let mavlink_ext_status_rate = setting("mavlink_ext_status_rate").await? as u8;
-    let mavlink_sysid = setting("mavlink_sysid").await? as u8;
-    let mavlink_version = setting("mavlink_version").await? as u8;
+    let mavlink = read_mavlink(port, timeout).await?;
     let map = port.request(msp_port::MSP_RX_MAP, &[], timeout).await?;
     let ranges = port
         .request(msp_port::MSP_MODE_RANGES, &[], timeout)
@@ -842,16 +906,33 @@ pub async fn read(port: &mut MspPort, timeout: Duration) -> Result<FcSettings, M
         msp_override_channels,
         failsafe_delay_ds,
         failsafe_recovery_delay_ds,
-        mavlink_extra1_rate,
-        mavlink_rc_chan_rate,
-        mavlink_ext_status_rate,
-        mavlink_sysid,
+        mavlink,
         rcmap: [byte(&map, 0), byte(&map, 1), byte(&map, 2), byte(&map, 3)],
         modes: mode_ranges(&ranges),
-        mavlink_version,
         box_ids,
         roll_rxrange: None,
     })
+}
+
+/// iNav's MAVLink settings, or `None` when the build refuses the first (it has no
+/// MAVLink: settings that are not compiled in are unknown to MSP2_COMMON_SETTING).
+async fn read_mavlink(
+    port: &mut MspPort,
+    timeout: Duration,
+) -> Result<Option<MavlinkSettings>, MspError> {
+    let extra1_rate = match port.setting("mavlink_extra1_rate", timeout).await {
+        Ok(v) => v as u8,
+        Err(MspError::Refused { .. }) => return Ok(None),
+        Err(e) => return Err(e),
+    };
+    let mut setting = async |name: &str| port.setting(name, timeout).await.map(|v| v as u8);
+    Ok(Some(MavlinkSettings {
+        extra1_rate,
+        rc_chan_rate: setting("mavlink_rc_chan_rate").await?,
+        ext_status_rate: setting("mavlink_ext_status_rate").await?,
+        sysid: setting("mavlink_sysid").await?,
+        version: setting("mavlink_version").await?,
+    }))
 }
 
 /// Why `faithd check-fc` could not judge the set-up.
@@ -1016,13 +1097,15 @@ mod tests {
             msp_override_channels: 1,
             failsafe_delay_ds: 5,
             failsafe_recovery_delay_ds: 5,
-            mavlink_extra1_rate: 50,
-            mavlink_rc_chan_rate: 50,
-            mavlink_ext_status_rate: 10,
-            mavlink_sysid: 1,
+            mavlink: Some(MavlinkSettings {
+                extra1_rate: 50,
+                rc_chan_rate: 50,
+                ext_status_rate: 10,
+                sysid: 1,
+                version: 2,
+            }),
             rcmap: [0, 1, 3, 2],
             modes,
-            mavlink_version: 2,
             // As iNav 9.1's SITL build lists them (MSP_BOXIDS).
             box_ids: vec![
                 0, 51, 61, 1, 2, 35, 5, 8, 6, 7, 32, 46, 3, 13, 60, 19, 27, 39, 40, 41, 42, 43, 44,
@@ -1111,6 +1194,23 @@ mod tests {
         );
     }
 
+    /// iNav 10 on an F411 or F722 has no MAVLink: the MAVLink link is refused with
+    /// the fix in faithd.toml, the MSP-only link passes without any MAVLink setting.
+    #[test]
+    fn a_build_without_mavlink_passes_only_with_the_telemetry_over_msp() {
+        let mut s = good();
+        s.mavlink = None;
+        refused(s.clone(), "telemetry", "[telemetry] kind = \"msp\"");
+        let report = evaluate(&s, &want().with_telemetry_over_msp(true));
+        assert_eq!(report.problems().count(), 0, "{}", report.summary());
+        assert!(report.items.iter().all(|i| !i.what.starts_with("MAVLink")));
+        // Over MSP, iNav's MAVLink settings do not matter even where it has them.
+        let mut s = good();
+        s.mavlink.as_mut().unwrap().extra1_rate = 0;
+        let report = evaluate(&s, &want().with_telemetry_over_msp(true));
+        assert!(report.route.is_some(), "{}", report.summary());
+    }
+
     #[test]
     fn each_known_failure_is_refused_with_its_cli_fix() {
         let mut s = good();
@@ -1132,19 +1232,19 @@ mod tests {
         s.modes[0].aux_index = 1;
         refused(s, "arm switch", "aux 0 0");
         let mut s = good();
-        s.mavlink_extra1_rate = 10;
+        s.mavlink.as_mut().unwrap().extra1_rate = 10;
         refused(s, "ATTITUDE rate", "set mavlink_extra1_rate = 50");
         let mut s = good();
-        s.mavlink_rc_chan_rate = 0;
+        s.mavlink.as_mut().unwrap().rc_chan_rate = 0;
         refused(s, "RC_CHANNELS rate", "set mavlink_rc_chan_rate = 50");
         let mut s = good();
-        s.mavlink_ext_status_rate = 2; // iNav's default
+        s.mavlink.as_mut().unwrap().ext_status_rate = 2; // iNav's default
         refused(s, "SYS_STATUS rate", "set mavlink_ext_status_rate = 10");
         let mut s = good();
-        s.mavlink_sysid = 7;
+        s.mavlink.as_mut().unwrap().sysid = 7;
         refused(s, "MAVLink system id", "set mavlink_sysid = 1");
         let mut s = good();
-        s.mavlink_version = 1;
+        s.mavlink.as_mut().unwrap().version = 1;
         refused(s, "MAVLink version", "set mavlink_version = 2");
         let mut s = good();
         s.box_ids.retain(|b| *b != MODE_MSP_RC_OVERRIDE);

@@ -26,7 +26,7 @@ use crate::actuator::{self, RouteStatus};
 use crate::clock::DaemonClock;
 use crate::config::FaithdConfig;
 use crate::link::ground::{self, GroundFeed, Notice};
-use crate::link::{self, LinkOutputs, ToAutopilot};
+use crate::link::{self, LinkOutputs, TelemetryConfig, ToAutopilot, over_msp};
 use crate::shutdown::Shutdown;
 use crate::source::{self, SourceIo};
 use crate::transport::Endpoint;
@@ -84,7 +84,7 @@ pub use crate::source::SIM_SOURCE_REFUSED;
 
 /// Runs the daemon until SIGINT, SIGTERM or SIGHUP.
 pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError> {
-    let endpoint = config.mavlink.port();
+    let endpoint = config.autopilot_port();
     let msp_endpoint = config.command.msp_port();
     supervise::install_panic_hook();
     // This run's faults: a panic on a runtime worker (a task), on the camera or the
@@ -362,16 +362,37 @@ fn start_links(
         recorder: recorder.clone(),
         ground: ground_feed.clone(),
     };
-    let to = ToAutopilot { own, from_ground };
     let beat = supervisor.register("autopilot link");
-    let task = link::run(config.mavlink.clone(), endpoint, clock, outputs, to, beat);
-    tasks.spawn("autopilot link", stop, task);
+    match &config.telemetry {
+        TelemetryConfig::Mavlink => {
+            let to = ToAutopilot { own, from_ground };
+            let task = link::run(config.mavlink.clone(), endpoint, clock, outputs, to, beat);
+            tasks.spawn("autopilot link", stop, task);
+        }
+        TelemetryConfig::Msp(_) => {
+            let task = over_msp::run(endpoint, msp_link_timing(config), clock, outputs, beat);
+            tasks.spawn("autopilot link", stop, task);
+        }
+    }
     Links {
         vehicle_rx,
         attitude,
         telemetry,
         ground_feed,
         _to_autopilot: to_autopilot,
+    }
+}
+
+/// The MSP telemetry link's timing: reconnects as `[mavlink]`'s, replies as the
+/// command port's.
+fn msp_link_timing(config: &FaithdConfig) -> over_msp::MspLinkTiming {
+    let us = |v: i64| Duration::from_micros(v.max(1) as u64);
+    over_msp::MspLinkTiming {
+        reply_timeout: us(config.command.msp_timeout_us),
+        reconnect_min: us(config.mavlink.reconnect_min_us),
+        reconnect_max: us(config.mavlink.reconnect_max_us),
+        autopilot_system_id: config.mavlink.autopilot_system_id,
+        autopilot_component_id: config.mavlink.autopilot_component_id,
     }
 }
 

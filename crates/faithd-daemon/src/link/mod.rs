@@ -6,6 +6,7 @@
 
 pub mod clock_sync;
 pub mod ground;
+pub mod over_msp;
 pub mod telemetry;
 
 use std::sync::{Arc, Mutex};
@@ -123,6 +124,27 @@ impl MavlinkConfig {
     }
 }
 
+/// Where faithd reads the autopilot: `[telemetry]`, a `kind` and its own settings.
+///
+/// iNav after 9.1 compiles MAVLink only on boards with more than 512 KB of flash
+/// (target/common.h, iNav PR #11868): on F411 and F722 flight controllers faithd reads
+/// the same facts over a second MSP port ([`over_msp`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TelemetryConfig {
+    /// iNav's MAVLink telemetry on `[mavlink]`'s port.
+    #[default]
+    Mavlink,
+    /// iNav's MSP on a UART of its own, beside the command port.
+    Msp(over_msp::MspTelemetryConfig),
+}
+
+impl TelemetryConfig {
+    pub fn is_msp(&self) -> bool {
+        matches!(self, TelemetryConfig::Msp(_))
+    }
+}
+
 /// ATTITUDE messages the clock offset is estimated over (five seconds at 50 Hz); the
 /// replay of a recorded flight uses the same.
 pub const CLOCK_SYNC_WINDOW: usize = 250;
@@ -150,7 +172,7 @@ pub struct ToAutopilot {
 
 /// Records a frame in or out, stamped with the daemon-clock time `t_us` it was
 /// handled at (in Unix time; see [`DaemonClock::unix_us`]).
-fn record(
+pub(crate) fn record(
     outputs: &LinkOutputs,
     clock: &DaemonClock,
     t_us: i64,
@@ -321,7 +343,7 @@ fn from_autopilot(config: &MavlinkConfig, header: &MavHeader) -> bool {
         && header.component_id == config.autopilot_component_id
 }
 
-fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOutputs) {
+pub(crate) fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, outputs: &LinkOutputs) {
     let mut update = Update::Ignored;
     let mut before = None;
     outputs.vehicle.send_if_modified(|v| {
