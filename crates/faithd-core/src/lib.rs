@@ -19,6 +19,7 @@ pub mod cluster; // DBSCAN over position and TTC: the obstacles
 pub mod decide; // a roll left, right or nothing, and why
 pub mod pipeline; // the stages above, in order, for one window
 pub mod safety; // the pilot's gate and the timed roll manoeuvre
+pub mod osd; // faithd's state as iNav global variables, for the pilot's goggles
 pub mod invalid; // a setting that cannot be used: its key and why
 pub mod math; // sin, hypot and the rest: the same bits on every architecture
 pub mod synth; // analytic inputs with known answers, for tests and the sim source

@@ -19,6 +19,7 @@ use crate::record::RecordConfig;
 use crate::source::SourceConfig;
 use crate::transport::Endpoint;
 use faithd_core::invalid::check;
+use faithd_core::osd::OsdConfig;
 use faithd_core::pipeline::PipelineConfig;
 use faithd_core::safety::gate::GateConfig;
 use faithd_core::safety::manoeuvre::ManoeuvreConfig;
@@ -39,6 +40,8 @@ pub struct FaithdConfig {
     pub source: SourceConfig,
     pub record: RecordConfig,
     pub ground: GroundConfig,
+    /// faithd's state in the pilot's goggles (iNav's global variables).
+    pub osd: OsdConfig,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -118,6 +121,7 @@ impl FaithdConfig {
         validate_camera_size(self)?;
         self.record.validate()?;
         self.ground.validate()?;
+        self.osd.validate()?;
         if let TelemetryConfig::Msp(t) = &self.telemetry {
             t.validate()?;
         }

@@ -24,6 +24,7 @@ use crate::command::Sink;
 use crate::config::FaithdConfig;
 use crate::supervise::Heartbeat;
 use crate::transport::Endpoint;
+pub use faithd_core::osd::PilotView;
 pub use faithd_core::safety::commander::{ReportedRoll, RouteStatus};
 
 /// A started route to the autopilot, as the daemon holds it.
@@ -42,16 +43,17 @@ enum Route {
 
 /// Starts the route `[command.sink]` names, on `endpoint` (the caller's: a serial
 /// port in flight, an in-process UART in the lab); `heartbeat` is the route task's
-/// beat for the watchdog.
+/// beat for the watchdog; `view` what the pilot's OSD is to show of faithd.
 pub fn start(
     config: &FaithdConfig,
     endpoint: Endpoint,
     clock: DaemonClock,
     heartbeat: Heartbeat,
+    view: watch::Receiver<PilotView>,
 ) -> Actuator {
     match &config.command.sink {
         Sink::Msp(_) => {
-            let (held, status, route) = msp::start(config, endpoint, clock, heartbeat);
+            let (held, status, route) = msp::start(config, endpoint, clock, heartbeat, view);
             Actuator {
                 held,
                 status,

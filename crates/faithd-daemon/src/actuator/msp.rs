@@ -16,6 +16,7 @@ use crate::command::stream::{self, ReleaseError, StopRequest, StreamHandle, Stre
 use crate::config::FaithdConfig;
 use crate::supervise::Heartbeat;
 use crate::transport::Endpoint;
+use faithd_core::osd::PilotView;
 
 /// How much longer than a roll lasts the stream holds it before it reverts to the
 /// centre on its own: the commander releases within a few milliseconds of the end.
@@ -38,13 +39,15 @@ pub(super) fn start(
     endpoint: Endpoint,
     clock: DaemonClock,
     heartbeat: Heartbeat,
+    view: watch::Receiver<PilotView>,
 ) -> (watch::Sender<u16>, watch::Receiver<RouteStatus>, MspRoute) {
+    let settings = stream_settings(config);
     let StreamHandle {
         held,
         status,
         facts,
         stop,
-    } = stream::spawn(endpoint.clone(), stream_settings(config), clock, heartbeat);
+    } = stream::spawn(endpoint.clone(), settings, clock, heartbeat, view);
     let route = MspRoute {
         stop,
         facts,
@@ -74,6 +77,7 @@ pub fn stream_settings(config: &FaithdConfig) -> StreamSettings {
         .with_telemetry_over_msp(config.telemetry.is_msp()),
         roll_rxrange: config.command.roll_rxrange_us,
         hold_bound: us(config.pipeline.decision.roll_duration_us + HOLD_MARGIN_US),
+        osd: config.osd,
     }
 }
 

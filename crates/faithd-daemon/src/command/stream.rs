@@ -32,6 +32,7 @@ use super::rxrange::RxRange;
 use crate::clock::DaemonClock;
 use crate::supervise::Heartbeat;
 use crate::transport::Endpoint;
+use faithd_core::osd::{GvarWriter, OsdConfig, PilotView};
 use faithd_core::safety::commander::{RollReport, RouteStatus};
 use faithd_core::safety::gate::{AutopilotStatus, RouteWords};
 use faithd_core::safety::rc::NEUTRAL_US;
@@ -54,6 +55,8 @@ pub struct StreamSettings {
     pub roll_rxrange: RxRange,
     /// A value other than the centre held longer than this is dropped by the stream.
     pub hold_bound: Duration,
+    /// faithd's state for the pilot's OSD, in iNav's global variables.
+    pub osd: OsdConfig,
 }
 
 /// Asks the stream to end with the stick centre: `repeats` frames one period apart;
@@ -112,12 +115,17 @@ pub static INAV_MSP_WORDS: RouteWords = RouteWords {
     warming_up: "iNav applies the MSP override only after its recovery delay",
 };
 
-/// Starts the stream task.
+/// MSP2_INAV_SET_GVAR (iNav 9.0 and later, fc/fc_msp.c): a u8 index and an int32.
+pub const MSP2_INAV_SET_GVAR: u16 = 0x2214;
+
+/// Starts the stream task; with `[osd] enabled`, it writes `view` into iNav's
+/// global variables in the slots the roll frame leaves free.
 pub fn spawn(
     endpoint: Endpoint,
     settings: StreamSettings,
     clock: DaemonClock,
     heartbeat: Heartbeat,
+    view: watch::Receiver<PilotView>,
 ) -> StreamHandle {
     let (held, held_rx) = watch::channel(NEUTRAL_US);
     let (status_tx, status) = watch::channel(RouteStatus::unchecked(&INAV_MSP_WORDS));
@@ -129,6 +137,10 @@ pub fn spawn(
         facts: facts_tx,
         stop: stop_rx,
         heartbeat,
+        osd: settings.osd.enabled.then(|| Osd {
+            writer: GvarWriter::new(&settings.osd),
+            view,
+        }),
     };
     tokio::spawn(run(endpoint, settings, clock, channels));
     StreamHandle {
@@ -146,6 +158,20 @@ struct Channels {
     facts: watch::Sender<Option<RouteFacts>>,
     stop: mpsc::Receiver<StopRequest>,
     heartbeat: Heartbeat,
+    osd: Option<Osd>,
+}
+
+/// What the pilot's OSD is to show, and which variable is written next.
+struct Osd {
+    writer: GvarWriter,
+    view: watch::Receiver<PilotView>,
+}
+
+impl Osd {
+    fn next(&mut self, now_us: i64) -> Option<(u8, i32)> {
+        let view = *self.view.borrow();
+        self.writer.next(&view, now_us)
+    }
 }
 
 /// Writes the release from outside the stream, on a port opened afresh: for when the
@@ -289,10 +315,14 @@ enum Ask {
     Rc,
     Status,
     Recheck(fc_check::Recheck),
+    /// One of faithd's variables for the pilot's OSD: iNav's index, the value.
+    Gvar(u8, i32),
 }
 
 /// MSP_RC and MSP2_INAV_STATUS in turn; every [`RECHECK_EVERY`] asks, the next part
-/// of the set-up check instead.
+/// of the set-up check instead, and two of every ten MSP2_INAV_STATUS a variable for
+/// the OSD when one is due (five a second at most; the status still comes every
+/// 160 ms).
 struct Rotation {
     n: usize,
     recheck: usize,
@@ -303,16 +333,19 @@ struct Rotation {
 const RECHECK_EVERY: usize = 10;
 
 impl Rotation {
-    fn next(&mut self) -> Ask {
+    fn next(&mut self, osd: Option<&mut Osd>, now_us: i64) -> Ask {
         self.n += 1;
         if self.n.is_multiple_of(RECHECK_EVERY) {
             self.recheck += 1;
             return Ask::Recheck(fc_check::RECHECKS[self.recheck % fc_check::RECHECKS.len()]);
         }
         if self.n.is_multiple_of(2) {
-            Ask::Rc
-        } else {
-            Ask::Status
+            return Ask::Rc;
+        }
+        let osd_turn = matches!(self.n % RECHECK_EVERY, 3 | 7);
+        match osd.filter(|_| osd_turn).and_then(|o| o.next(now_us)) {
+            Some((index, value)) => Ask::Gvar(index, value),
+            None => Ask::Status,
         }
     }
 }
@@ -424,6 +457,9 @@ impl<'a> Serving<'a> {
         channels: &mut Channels,
     ) -> Self {
         channels.held.mark_unchanged();
+        if let Some(osd) = channels.osd.as_mut() {
+            osd.writer.forget();
+        }
         let started_us = clock.now_us();
         let ready_at_us = started_us + facts.warmup_us + settings.warmup_margin_us;
         channels.facts.send_replace(Some(facts));
@@ -477,7 +513,8 @@ impl<'a> Serving<'a> {
         let ask = if roll_due {
             None
         } else {
-            Some(self.rotation.next())
+            let now_us = self.clock.now_us();
+            Some(self.rotation.next(channels.osd.as_mut(), now_us))
         };
         tokio::select! {
             biased;
@@ -507,6 +544,14 @@ impl<'a> Serving<'a> {
                 msp::encode_request(msp_port::MSP2_INAV_STATUS, &[]),
             ),
             Some(Ask::Recheck(r)) => (r.command(), r.request()),
+            Some(Ask::Gvar(index, value)) => {
+                let mut payload = vec![index];
+                payload.extend_from_slice(&value.to_le_bytes());
+                (
+                    MSP2_INAV_SET_GVAR,
+                    msp::encode_request(MSP2_INAV_SET_GVAR, &payload),
+                )
+            }
         };
         let slot_at = match self.port.send(&bytes).await {
             Ok(at) => at,
@@ -548,7 +593,7 @@ impl<'a> Serving<'a> {
         payload: &[u8],
     ) -> Option<Ended> {
         match ask {
-            None => {}
+            None | Some(Ask::Gvar(..)) => {}
             Some(Ask::Rc) => {
                 if let Some(roll_us) = msp_port::rc_values(payload).next() {
                     let report = RollReport {
@@ -720,6 +765,11 @@ mod on_the_board {
         (Endpoint::new(Address::InProcess(port), 115_200), seen)
     }
 
+    /// No OSD: the view never changes.
+    fn no_view() -> watch::Receiver<PilotView> {
+        watch::channel(PilotView::default()).1
+    }
+
     fn settings() -> StreamSettings {
         let config = crate::config::FaithdConfig::default();
         StreamSettings {
@@ -732,6 +782,7 @@ mod on_the_board {
             expect: Expectations::new(&config.gate, &config.command, 1),
             roll_rxrange: RxRange::DEFAULT,
             hold_bound: Duration::from_millis(1750),
+            osd: OsdConfig::default(),
         }
     }
 
@@ -743,7 +794,7 @@ mod on_the_board {
         let clock = DaemonClock::simulated(0);
         let (endpoint, seen) = inav(clock);
         let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
-        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        let stream = spawn(endpoint, settings(), clock, heartbeat, no_view());
         tokio::time::sleep(Duration::from_millis(30)).await;
         assert!(
             !seen.lock().unwrap().port.arrived.is_empty(),
@@ -779,7 +830,7 @@ mod on_the_board {
         let clock = DaemonClock::simulated(0);
         let (endpoint, seen) = inav(clock);
         let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
-        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        let stream = spawn(endpoint, settings(), clock, heartbeat, no_view());
         tokio::time::sleep(Duration::from_secs(2)).await;
         // A commander that sets a roll and never takes it back (stuck, or wrong).
         let raised_us = clock.now_us();
@@ -817,7 +868,7 @@ mod on_the_board {
         let clock = DaemonClock::simulated(0);
         let (endpoint, seen) = inav(clock);
         let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
-        let stream = spawn(endpoint, settings(), clock, heartbeat);
+        let stream = spawn(endpoint, settings(), clock, heartbeat, no_view());
         // Rolls and releases in quick succession: every change is a roll frame first.
         for k in 0..40u64 {
             tokio::time::sleep(Duration::from_millis(100 + 7 * k)).await;

@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use tokio::sync::{mpsc, watch};
 
-use crate::actuator::{self, RouteStatus};
+use crate::actuator::{self, PilotView, RouteStatus};
 use crate::clock::DaemonClock;
 use crate::config::FaithdConfig;
 use crate::link::ground::{self, GroundFeed, Notice};
@@ -245,11 +245,13 @@ pub async fn serve(
         &stop,
         &faults,
     );
+    let (view, view_rx) = watch::channel(PilotView::default());
     let actuator = actuator::start(
         &config,
         msp_endpoint.clone(),
         clock,
         supervisor.register("MSP roll stream"),
+        view_rx,
     );
     let commander_beat = supervisor.register("commander");
     tasks.spawn("journal", &stop, report_dropped_log_lines());
@@ -280,8 +282,9 @@ pub async fn serve(
             observer,
             heartbeat: commander_beat,
             ground: links.ground_feed.clone(),
+            telemetry_rx: links.telemetry.subscribe(),
         },
-        held,
+        Outputs { held, view },
     );
     let mut commander = tokio::spawn(async move {
         commander_stop.until(task).await;
@@ -607,6 +610,14 @@ struct CommanderInputs {
     heartbeat: supervise::Heartbeat,
     /// Gate changes and rolls, for the ground station (a no-op without one).
     ground: GroundFeed,
+    /// The pipeline's newest estimates: the obstacle's time to contact.
+    telemetry_rx: watch::Receiver<PipelineTelemetry>,
+}
+
+/// What the commander sets: the roll value held, and what the pilot's OSD shows.
+struct Outputs {
+    held: watch::Sender<u16>,
+    view: watch::Sender<PilotView>,
 }
 
 /// The commander's configuration, from faithd.toml.
@@ -628,8 +639,9 @@ async fn commander_task(
     rules: CommanderConfig,
     clock: DaemonClock,
     inputs: CommanderInputs,
-    held: watch::Sender<u16>,
+    outputs: Outputs,
 ) {
+    let Outputs { held, view } = outputs;
     let CommanderInputs {
         mut vehicle_rx,
         mut status_rx,
@@ -638,6 +650,7 @@ async fn commander_task(
         mut observer,
         heartbeat,
         ground,
+        telemetry_rx,
     } = inputs;
     let mut commander = Commander::new(rules);
     let period = Duration::from_micros((rules.manoeuvre.resend_period_us / 4).max(1000) as u64);
@@ -689,6 +702,9 @@ async fn commander_task(
             },
         );
         held.send_if_modified(|v| std::mem::replace(v, step.held_us) != step.held_us);
+        let ttc_s = telemetry_rx.borrow().obstacle_ttc_s;
+        let seen = PilotView::new(&step.gate, step.held_us, ttc_s);
+        view.send_if_modified(|v| std::mem::replace(v, seen) != seen);
         if last_observed_gate != Some(step.gate) {
             if let Some(observe) = observer.as_mut() {
                 observe(Observation::Gate {
