@@ -326,12 +326,14 @@ mod tests {
 
     #[test]
     fn the_msp_only_link_takes_a_port_of_its_own() {
-        let config = FaithdConfig::parse(
-            "[telemetry]\nkind = \"msp\"\nendpoint = \"serial:/dev/ttyS5\"\n",
-        )
-        .unwrap();
+        let config =
+            FaithdConfig::parse("[telemetry]\nkind = \"msp\"\nendpoint = \"serial:/dev/ttyS5\"\n")
+                .unwrap();
         assert!(config.telemetry.is_msp());
-        assert_eq!(config.autopilot_port().to_string(), "serial /dev/ttyS5 at 115200 baud");
+        assert_eq!(
+            config.autopilot_port().to_string(),
+            "serial /dev/ttyS5 at 115200 baud"
+        );
         let same = FaithdConfig::parse(
             "[telemetry]\nkind = \"msp\"\nendpoint = \"serial:/dev/ttyAMA1\"\n",
         )
@@ -341,14 +343,17 @@ mod tests {
                 && same.to_string().contains("telemetry.endpoint"),
             "{same}"
         );
-        let typo = FaithdConfig::parse("[telemetry]\nkind = \"msp\"\nendpiont = \"x\"\n")
-            .unwrap_err();
+        let typo =
+            FaithdConfig::parse("[telemetry]\nkind = \"msp\"\nendpiont = \"x\"\n").unwrap_err();
         assert!(typo.to_string().contains("endpiont"), "{typo}");
         let forward = FaithdConfig::parse(
             "[telemetry]\nkind = \"msp\"\n[ground]\nendpoint = \"udp:0.0.0.0:14550\"\nforward_to_autopilot = true\n",
         )
         .unwrap_err();
-        assert!(forward.to_string().contains("ground.forward_to_autopilot"), "{forward}");
+        assert!(
+            forward.to_string().contains("ground.forward_to_autopilot"),
+            "{forward}"
+        );
     }
 
     #[test]

@@ -233,12 +233,26 @@ pub fn check_fc(args: &CheckFcArgs) -> Result<(), Failure> {
             "reading rxrange in iNav's CLI: the flight controller reboots when the check leaves it (--no-cli skips this)"
         );
     }
-    let report = fc_check::check_over_msp(&config.command, &expect, !args.no_cli).map_err(|e| {
-        Failure::failed(format!(
-            "cannot read the flight controller on {}: {e}",
-            config.command.msp_port()
-        ))
-    })?;
+    let timeout = std::time::Duration::from_micros(config.command.msp_timeout_us.max(1) as u64);
+    let telemetry = match &config.telemetry {
+        faithd::link::TelemetryConfig::Msp(t) => {
+            Some(fc_check::probe_msp_telemetry(&t.port(), timeout))
+        }
+        faithd::link::TelemetryConfig::Mavlink => None,
+    };
+    let mut report =
+        fc_check::check_over_msp(&config.command, &expect, !args.no_cli).map_err(|e| {
+            Failure::failed(format!(
+                "cannot read the flight controller on {}: {e}",
+                config.command.msp_port()
+            ))
+        })?;
+    if let Some(item) = telemetry {
+        if item.problem.is_some() {
+            report.route = None;
+        }
+        report.items.push(item);
+    }
     if args.json {
         print_fc_report_json(&report);
     } else {

@@ -1015,6 +1015,49 @@ pub fn check_over_msp(
     })
 }
 
+/// `faithd check-fc` with `[telemetry] kind = "msp"`: whether iNav answers MSP on
+/// the telemetry port (asked before the command port's check, which may reboot it).
+pub fn probe_msp_telemetry(endpoint: &crate::transport::Endpoint, timeout: Duration) -> CheckItem {
+    let asked = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())
+        .and_then(|runtime| {
+            runtime.block_on(async {
+                let transport = tokio::time::timeout(Duration::from_secs(3), endpoint.open())
+                    .await
+                    .map_err(|_| "did not open within 3 s".to_string())?
+                    .map_err(|e| e.to_string())?;
+                let mut port = MspPort::new(transport);
+                let variant = port
+                    .request(msp_port::MSP_FC_VARIANT, &[], timeout)
+                    .await
+                    .map_err(|e| e.to_string())?;
+                Ok(String::from_utf8_lossy(&variant[..variant.len().min(4)]).into_owned())
+            })
+        });
+    match asked {
+        Ok(variant) if variant == "INAV" => item(
+            "telemetry port",
+            format!("iNav answers MSP on {endpoint}"),
+            None,
+            None,
+        ),
+        Ok(other) => item(
+            "telemetry port",
+            format!("{other:?} answers MSP on {endpoint}"),
+            Some("faithd reads iNav only".into()),
+            None,
+        ),
+        Err(why) => item(
+            "telemetry port",
+            format!("no MSP reply on {endpoint}: {why}"),
+            Some("faithd reads the autopilot there ([telemetry] kind = \"msp\")".into()),
+            Some("serial N 1 115200 115200 115200 115200 for the UART wired to telemetry.endpoint (N its index: function 1 is MSP), or fix telemetry.endpoint in faithd.toml".into()),
+        ),
+    }
+}
+
 /// Reads `rxrange` of roll in iNav's CLI (fc/cli.c `cliRxRange` prints
 /// `rxrange <channel> <min> <max>` for the four flight channels), then leaves it with
 /// `exit`, which reboots the flight controller.
