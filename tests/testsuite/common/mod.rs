@@ -12,6 +12,7 @@ pub mod daemon;
 pub mod msp;
 pub mod recording;
 pub mod sitl;
+pub mod wiretap;
 
 use std::os::fd::OwnedFd;
 use std::path::{Path, PathBuf};

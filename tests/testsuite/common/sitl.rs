@@ -25,6 +25,10 @@ use faithd_lab::inav_sitl::{monitor, process, radio};
 /// The committed set-up: the pilot's vehicle, then faithd's part (hil/inav/faithd.cli).
 pub const PILOT_CLI: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/inav/pilot.cli");
 pub const FAITHD_CLI: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/hil/inav/faithd.cli");
+/// faithd's part for a flight controller without MAVLink: two MSP ports.
+pub const FAITHD_MSP_CLI: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/hil/inav/faithd-msp.cli");
+/// The custom OSD elements that show faithd's state in the pilot's goggles.
+pub const OSD_CLI: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/hil/inav/osd.cli");
 
 /// The environment variable that names iNav's SITL executable.
 pub const SITL_VAR: &str = "INAV_SITL";
@@ -98,9 +102,17 @@ impl Sitl {
     /// A fresh SITL with the pilot's set-up and faithd's committed script applied,
     /// then `extra` CLI lines, saved.
     pub fn with_committed_setup(extra: &[&str]) -> Self {
+        Self::with_scripts(&[FAITHD_CLI], extra)
+    }
+
+    /// A fresh SITL with the pilot's set-up, then each of faithd's `scripts`, then
+    /// `extra` CLI lines, saved.
+    pub fn with_scripts(scripts: &[&str], extra: &[&str]) -> Self {
         let sitl = Sitl::start();
         let mut lines = read_script(PILOT_CLI);
-        lines.extend(read_script(FAITHD_CLI));
+        for script in scripts {
+            lines.extend(read_script(script));
+        }
         lines.extend(extra.iter().map(|l| l.to_string()));
         sitl.cli_save(&lines);
         sitl

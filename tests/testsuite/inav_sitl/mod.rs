@@ -1,11 +1,15 @@
-//! faithd against iNav's own firmware: iNav 9.1's SITL build, set up from the
-//! committed CLI scripts (tests/inav/pilot.cli, then hil/inav/faithd.cli), the
+//! faithd against iNav's own firmware: iNav's SITL build (9.1, and 10.x built from
+//! `maintenance-10.x`), set up from the committed CLI scripts (tests/inav/pilot.cli,
+//! then hil/inav/faithd.cli, or hil/inav/faithd-msp.cli in [`msp_only`]), the
 //! pilot's radio on a real IBUS receiver, the real `faithd run` binary on SITL's
 //! MAVLink and MSP ports. Every assertion is on what iNav itself uses, read back over
 //! MSP (MSP_RC, MSP2_INAV_STATUS) on a port of its own, never on what faithd sent.
 //!
 //! `cargo test --release --test testsuite inav_sitl:: -- --nocapture` prints the measured
 //! figures (application delay, in-effect share, release delay) docs/inav.md quotes.
+
+mod msp_only;
+mod osd;
 
 use crate::common;
 use crate::require_sitl;
@@ -24,6 +28,15 @@ const APPLY_BOUND_US: i64 = 100_000;
 const IN_EFFECT_MIN: f64 = 0.95;
 const RELEASE_BOUND_US: i64 = 100_000;
 
+/// How faithd reads iNav on the bench.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Link {
+    /// iNav's MAVLink telemetry on UART3 (hil/inav/faithd.cli).
+    Mavlink,
+    /// A second MSP port on UART3 (hil/inav/faithd-msp.cli): no MAVLink at all.
+    Msp,
+}
+
 /// A vehicle on the bench: SITL with the committed set-up plus `extra` CLI lines,
 /// the pilot's radio, the monitor, armed in ANGLE, the pilot's roll stick slightly
 /// left of centre.
@@ -31,11 +44,22 @@ struct Bench {
     sitl: Sitl,
     radio: Radio,
     monitor: Monitor,
+    link: Link,
 }
 
 impl Bench {
     fn new(extra: &[&str]) -> Self {
-        let sitl = Sitl::with_committed_setup(extra);
+        Self::with(Link::Mavlink, &[], extra)
+    }
+
+    /// With `link` and, after faithd's script for it, the `more` scripts.
+    fn with(link: Link, more: &[&str], extra: &[&str]) -> Self {
+        let mut scripts = vec![match link {
+            Link::Mavlink => FAITHD_CLI,
+            Link::Msp => FAITHD_MSP_CLI,
+        }];
+        scripts.extend_from_slice(more);
+        let sitl = Sitl::with_scripts(&scripts, extra);
         let radio = Radio::start(&sitl);
         let monitor = Monitor::start(&sitl);
         arm(&radio, &monitor, &sitl);
@@ -44,20 +68,48 @@ impl Bench {
             sitl,
             radio,
             monitor,
+            link,
         }
     }
 
-    /// `faithd run` on this SITL: MAVLink on UART3, the MSP stream on UART4, the
-    /// simulated camera's first approach at `first_approach_us`.
+    /// faithd.toml's lines for the autopilot's telemetry on `endpoint` (UART3, or a
+    /// tap on it).
+    fn telemetry_toml(&self, endpoint: &str) -> String {
+        match self.link {
+            Link::Mavlink => format!(
+                "[mavlink]\nendpoint = \"{endpoint}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n"
+            ),
+            Link::Msp => format!(
+                "[telemetry]\nkind = \"msp\"\nendpoint = \"{endpoint}\"\n[mavlink]\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n"
+            ),
+        }
+    }
+
+    /// `faithd run` on this SITL: the telemetry on UART3, the MSP stream on UART4,
+    /// the simulated camera's first approach at `first_approach_us`.
     fn faithd(&self, first_approach_us: i64, extra: &str) -> Daemon {
+        self.faithd_on(
+            &self.sitl.endpoint(UART_MAVLINK),
+            &self.sitl.endpoint(UART_MSP_FAITHD),
+            first_approach_us,
+            extra,
+        )
+    }
+
+    /// As [`Bench::faithd`], on the endpoints given (taps on the UARTs).
+    fn faithd_on(
+        &self,
+        telemetry: &str,
+        command: &str,
+        first_approach_us: i64,
+        extra: &str,
+    ) -> Daemon {
         Daemon::start_config(
             &format!(
-                "[mavlink]\nendpoint = \"{}\"\nreconnect_min_us = 50000\nreconnect_max_us = 200000\n\
-                 [command.sink]\nkind = \"msp\"\nendpoint = \"{}\"\n\
+                "{}[command.sink]\nkind = \"msp\"\nendpoint = \"{command}\"\n\
                  [source]\nkind = \"sim\"\nfirst_approach_us = {first_approach_us}\nrepeat_us = 4000000\n\
                  [record]\nenabled = false\n{extra}",
-                self.sitl.endpoint(UART_MAVLINK),
-                self.sitl.endpoint(UART_MSP_FAITHD),
+                self.telemetry_toml(telemetry),
             ),
             &[],
         )
@@ -175,7 +227,12 @@ fn assert_only_roll_changed(monitor: &Monitor, radio: &Radio, from_us: i64, to_u
 #[test]
 fn the_roll_route_works_beside_the_pilots_radio() {
     require_sitl!();
-    let bench = Bench::new(&[]);
+    route_beside_the_pilots_radio(&Bench::new(&[]));
+}
+
+/// Two rolls in AUTO, none in MANUAL: each in effect, held and given back in time,
+/// nothing but roll ever changed, armed and in ANGLE throughout.
+fn route_beside_the_pilots_radio(bench: &Bench) {
     bench.radio.set(CH_SWITCH, AUTO_US);
     let started_us = unix_us();
     let mut daemon = bench.faithd(1_000_000, "");
@@ -289,8 +346,13 @@ fn journal_time(log: &str, needle: &str) -> Option<i64> {
 #[test]
 fn every_stop_and_a_restart_after_a_kill_give_roll_back() {
     require_sitl!();
+    stops_and_a_kill_give_roll_back(&Bench::new(&[]));
+}
+
+/// SIGTERM, SIGINT and SIGHUP mid-roll release at once; after a SIGKILL iNav holds the
+/// roll no longer than its own override's timeout, or until the restarted faithd.
+fn stops_and_a_kill_give_roll_back(bench: &Bench) {
     use nix::sys::signal::Signal;
-    let bench = Bench::new(&[]);
     bench.radio.set(CH_SWITCH, AUTO_US);
     for signal in [Signal::SIGTERM, Signal::SIGINT, Signal::SIGHUP] {
         let mut daemon = bench.faithd(1_000_000, "");
