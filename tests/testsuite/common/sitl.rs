@@ -16,7 +16,7 @@ use std::path::PathBuf;
 pub use faithd_lab::inav_sitl::clock::unix_us;
 pub use faithd_lab::inav_sitl::monitor::{MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE, Sample};
 pub use faithd_lab::inav_sitl::msp_client::MspClient;
-pub use faithd_lab::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MSP_FAITHD};
+pub use faithd_lab::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MONITOR, UART_MSP_FAITHD};
 pub use faithd_lab::inav_sitl::radio::{
     AUTO_US, CH_ROLL, CH_SWITCH, CH_THROTTLE, MANUAL_US, PILOT_CHANNELS, PILOT_ROLL_US,
 };
@@ -167,6 +167,11 @@ impl Deref for Monitor {
 }
 
 impl Monitor {
+    /// On UART1, the CLI's port, when UART2 cannot be an MSP port.
+    pub fn start_on(sitl: &Sitl, uart: u16) -> Self {
+        Monitor(monitor::Monitor::start_on(sitl, uart).unwrap_or_else(|e| panic!("{e}")))
+    }
+
     pub fn start(sitl: &Sitl) -> Self {
         Monitor(monitor::Monitor::start(sitl).unwrap_or_else(|e| panic!("{e}")))
     }

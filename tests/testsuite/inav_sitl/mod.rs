@@ -59,9 +59,22 @@ impl Bench {
             Link::Msp => FAITHD_MSP_CLI,
         }];
         scripts.extend_from_slice(more);
-        let sitl = Sitl::with_scripts(&scripts, extra);
+        // iNav allows three MSP ports (msp/msp_serial.h MAX_MSP_PORT_COUNT; a save
+        // with more resets every port, io/serial.c isSerialConfigValid). SITL's
+        // UART1 and UART2 are both MSP: with faithd's two, the monitor moves to UART1,
+        // as a board's USB port is the third.
+        let monitor_uart = match link {
+            Link::Mavlink => UART_MONITOR,
+            Link::Msp => UART_CLI,
+        };
+        let mut lines: Vec<&str> = Vec::new();
+        if link == Link::Msp {
+            lines.push("serial 1 0 115200 115200 115200 115200");
+        }
+        lines.extend_from_slice(extra);
+        let sitl = Sitl::with_scripts(&scripts, &lines);
         let radio = Radio::start(&sitl);
-        let monitor = Monitor::start(&sitl);
+        let monitor = Monitor::start_on(&sitl, monitor_uart);
         arm(&radio, &monitor, &sitl);
         radio.set(CH_ROLL, PILOT_ROLL_US);
         Bench {

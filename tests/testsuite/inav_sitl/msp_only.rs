@@ -126,7 +126,11 @@ fn inavs_failsafe_closes_the_gate() {
 #[test]
 fn check_fc_passes_over_msp_alone_and_names_a_silent_telemetry_port() {
     require_sitl!();
-    let sitl = Sitl::with_scripts(&[FAITHD_MSP_CLI], &[]);
+    // With faithd's two MSP ports, SITL's UART2 gives up MSP (iNav allows three).
+    let sitl = Sitl::with_scripts(
+        &[FAITHD_MSP_CLI],
+        &["serial 1 0 115200 115200 115200 115200"],
+    );
     let toml = format!(
         "[telemetry]\nkind = \"msp\"\nendpoint = \"{}\"\n",
         sitl.endpoint(UART_MAVLINK)

@@ -3,90 +3,25 @@
 //! variables, and the variables read back from iNav (MSP2_INAV_GVAR_STATUS on a port
 //! of the test's own) through each state the pilot can see.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use super::{Bench, Link, manoeuvres};
 use crate::common::sitl::*;
 use crate::require_sitl;
 
-/// MSP2_INAV_GVAR_STATUS: iNav's eight global variables, int32 each (fc/fc_msp.c).
-const MSP2_INAV_GVAR_STATUS: u16 = 0x2027;
 /// faithd's variables with `[osd] first_gvar = 5`.
 const GATE: usize = 5;
 const ROLL: usize = 6;
 const TTC: usize = 7;
 
-/// iNav's global variables read back every 50 ms: (Unix us, values).
-struct GvarReader {
-    seen: Arc<Mutex<Vec<(i64, [i32; 8])>>>,
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl GvarReader {
-    fn start(sitl: &Sitl) -> Self {
-        let mut client = MspClient::connect(sitl.port(UART_CLI)).expect("UART1");
-        let seen = Arc::new(Mutex::new(Vec::new()));
-        let stop = Arc::new(AtomicBool::new(false));
-        let thread = {
-            let (seen, stop) = (seen.clone(), stop.clone());
-            std::thread::spawn(move || {
-                while !stop.load(Ordering::Relaxed) {
-                    if let Ok(reply) = client.request(MSP2_INAV_GVAR_STATUS, &[]) {
-                        let mut values = [0i32; 8];
-                        for (v, b) in values.iter_mut().zip(reply.chunks_exact(4)) {
-                            *v = i32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-                        }
-                        seen.lock().unwrap().push((unix_us(), values));
-                    }
-                    std::thread::sleep(Duration::from_millis(50));
-                }
-            })
-        };
-        GvarReader {
-            seen,
-            stop,
-            thread: Some(thread),
-        }
-    }
-
-    /// Waits until iNav's variables satisfy `pred`; when they did.
-    fn wait_for(&self, timeout: Duration, pred: impl Fn(&[i32; 8]) -> bool) -> Option<i64> {
-        let from = unix_us();
-        let deadline = std::time::Instant::now() + timeout;
-        while std::time::Instant::now() < deadline {
-            if let Some((t, _)) = self
-                .seen
-                .lock()
-                .unwrap()
-                .iter()
-                .find(|(t, v)| *t >= from && pred(v))
-            {
-                return Some(*t);
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        None
-    }
-
-    fn between(&self, from_us: i64, to_us: i64) -> Vec<[i32; 8]> {
-        let seen = self.seen.lock().unwrap();
-        seen.iter()
-            .filter(|(t, _)| (from_us..=to_us).contains(t))
-            .map(|(_, v)| *v)
-            .collect()
-    }
-}
-
-impl Drop for GvarReader {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
+/// iNav's global variables as the monitor read them back: (Unix us, values).
+fn gvars(bench: &Bench, from_us: i64, to_us: i64) -> Vec<(i64, [i32; 8])> {
+    bench
+        .monitor
+        .between(from_us, to_us)
+        .iter()
+        .filter_map(|s| s.gvars.map(|g| (s.t_us, g)))
+        .collect()
 }
 
 /// Every state the pilot can see, read back from iNav's own variables: MANUAL (1),
@@ -96,12 +31,16 @@ impl Drop for GvarReader {
 fn the_goggles_show_each_state_of_faithd() {
     require_sitl!();
     let bench = Bench::with(Link::Msp, &[OSD_CLI], &[]);
-    let gvars = GvarReader::start(&bench.sitl);
     bench.radio.set(CH_SWITCH, MANUAL_US);
     let mut daemon = bench.faithd(3_000_000, "[osd]\nenabled = true\n");
     let wait = |what: &str, pred: &dyn Fn(&[i32; 8]) -> bool| {
-        gvars
-            .wait_for(Duration::from_secs(6), pred)
+        let from = unix_us();
+        bench
+            .monitor
+            .wait_until(Duration::from_secs(6), |s| {
+                s.t_us >= from && s.gvars.is_some_and(|g| pred(&g))
+            })
+            .map(|s| s.t_us)
             .unwrap_or_else(|| panic!("the goggles never showed {what}:\n{}", daemon.log()))
     };
     wait("MANUAL (gate 1)", &|v| v[GATE] == 1 && v[ROLL] == 0);
@@ -123,10 +62,10 @@ fn the_goggles_show_each_state_of_faithd() {
     assert!(daemon.stop().success(), "{log}");
     let m = manoeuvres(&log);
     assert!(!m.is_empty(), "{log}");
-    let shown = gvars.between(m[0].start_us, m[0].start_us + 1_000_000);
+    let shown = gvars(&bench, m[0].start_us, m[0].start_us + 1_000_000);
     let side = if m[0].roll_us > 1500 { 1 } else { -1 };
     assert!(
-        shown.iter().any(|v| v[ROLL] == side),
+        shown.iter().any(|(_, v)| v[ROLL] == side),
         "the roll shown is the side commanded ({side}): {shown:?}"
     );
     eprintln!(

@@ -31,6 +31,9 @@ pub struct Sample {
     pub arming_flags: u32,
     /// Permanent ids of the modes active (fc/fc_msp_box.c).
     pub modes: Vec<u8>,
+    /// iNav's eight global variables (MSP2_INAV_GVAR_STATUS), read with every fifth
+    /// sample; `None` in the others.
+    pub gvars: Option<[i32; 8]>,
 }
 
 impl Sample {
@@ -45,7 +48,11 @@ impl Sample {
     }
 }
 
-/// Reads MSP_RC and MSP2_INAV_STATUS from UART2 every 10 ms.
+/// MSP2_INAV_GVAR_STATUS: the global variables, int32 each (fc/fc_msp.c).
+const MSP2_INAV_GVAR_STATUS: u16 = 0x2027;
+
+/// Reads MSP_RC and MSP2_INAV_STATUS from UART2 every 10 ms (and the global
+/// variables with every fifth sample).
 pub struct Monitor {
     pub samples: Arc<Mutex<Vec<Sample>>>,
     stop: Arc<AtomicBool>,
@@ -54,8 +61,14 @@ pub struct Monitor {
 
 impl Monitor {
     pub fn start(sitl: &Sitl) -> Result<Self, SitlError> {
-        let mut client = MspClient::connect(sitl.port(UART_MONITOR))
-            .map_err(|e| SitlError::Other(format!("the monitor's UART{UART_MONITOR}: {e}")))?;
+        Self::start_on(sitl, UART_MONITOR)
+    }
+
+    /// The monitor on `uart` (UART1, the CLI's, when UART2 cannot be an MSP port:
+    /// iNav allows three).
+    pub fn start_on(sitl: &Sitl, uart: u16) -> Result<Self, SitlError> {
+        let mut client = MspClient::connect(sitl.port(uart))
+            .map_err(|e| SitlError::Other(format!("the monitor's UART{uart}: {e}")))?;
         let box_ids = client
             .request(MSP_BOXIDS, &[])
             .map_err(|e| SitlError::Other(format!("MSP_BOXIDS: {e}")))?;
@@ -64,7 +77,9 @@ impl Monitor {
         let thread = {
             let (samples, stop) = (samples.clone(), stop.clone());
             std::thread::spawn(move || {
+                let mut n = 0u64;
                 while !stop.load(Ordering::Relaxed) {
+                    n += 1;
                     let next = Instant::now() + Duration::from_millis(10);
                     let t_us = unix_us();
                     let (Ok(rc), Ok(status)) = (
@@ -81,6 +96,11 @@ impl Monitor {
                             .collect(),
                         arming_flags: u32_at(&status, 9),
                         modes: active_modes(&status[13.min(status.len())..], &box_ids),
+                        gvars: n
+                            .is_multiple_of(5)
+                            .then(|| client.request(MSP2_INAV_GVAR_STATUS, &[]).ok())
+                            .flatten()
+                            .map(|g| std::array::from_fn(|i| i32_at(&g, 4 * i))),
                     });
                     if let Some(wait) = next.checked_duration_since(Instant::now()) {
                         std::thread::sleep(wait);
@@ -177,4 +197,10 @@ pub fn arm(radio: &Radio, monitor: &Monitor, sitl: &Sitl) -> Result<(), SitlErro
         "SITL did not arm: flags {:#x}",
         monitor.latest().map_or(0, |s| s.arming_flags)
     )))
+}
+
+fn i32_at(bytes: &[u8], at: usize) -> i32 {
+    bytes
+        .get(at..at + 4)
+        .map_or(0, |b| i32::from_le_bytes([b[0], b[1], b[2], b[3]]))
 }

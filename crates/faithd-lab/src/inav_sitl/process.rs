@@ -263,9 +263,10 @@ impl Sitl {
                 && let (Ok(i), Ok(f)) = (index.parse::<u16>(), function.parse::<u32>())
             {
                 // Serial RX (64) listens only with receiver_type = SERIAL: the radio
-                // waits for it on its own.
+                // waits for it on its own. A port given no function (UART2 too,
+                // when the monitor moves to UART1) is not waited for.
                 let mut uarts = self.uarts.lock().expect("uarts lock");
-                if (f == 0 || f == 64) && i + 1 > UART_MONITOR {
+                if (f == 0 || f == 64) && i + 1 > UART_CLI {
                     uarts.remove(&(i + 1));
                 } else if f != 0 {
                     uarts.insert(i + 1);
