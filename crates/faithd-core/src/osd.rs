@@ -1,7 +1,10 @@
 //! faithd's state in the pilot's goggles: three iNav global variables that the
 //! flight controller's OSD shows (custom OSD elements, io/osd/custom_elements.h):
-//! the gate (0 open, else a short reason code), the roll (-1 left, 0 none, 1 right)
-//! and the nearest obstacle's time to contact in tenths of a second (0 none).
+//! the gate (1 open, 2 and up a short reason code it is closed for), the roll (-1
+//! left, 0 none, 1 right) and the nearest obstacle's time to contact in tenths of a
+//! second (0 none). The gate is never 0: iNav starts its variables at 0
+//! (programming/global_variables.c, gvInit), so 0 means faithd has written nothing
+//! since the flight controller booted, and the OSD shows nothing of faithd.
 //!
 //! The pilot flies with goggles and no ground station: a code is what fits in a
 //! corner of the OSD, and docs/inav.md lists what each means. Pure: the caller
@@ -60,16 +63,16 @@ impl OsdConfig {
     }
 }
 
-/// The gate's code on the OSD: 0 open, else why it is closed, grouped by what the
-/// pilot can do about it.
+/// The gate's code on the OSD: 1 open, else why it is closed, grouped by what the
+/// pilot can do about it (docs/inav.md has the table).
 pub fn gate_code(gate: &GateState) -> i32 {
     let GateState::Closed(blocker) = gate else {
-        return 0;
+        return GATE_OPEN;
     };
     match blocker {
-        Blocker::SwitchNotAuto { .. } | Blocker::SwitchMissing { .. } => 1,
-        Blocker::Disarmed => 2,
-        Blocker::AutopilotFailsafe { .. } | Blocker::RadioLost => 3,
+        Blocker::SwitchNotAuto { .. } | Blocker::SwitchMissing { .. } => 2,
+        Blocker::Disarmed => 3,
+        Blocker::AutopilotFailsafe { .. } | Blocker::RadioLost => 4,
         Blocker::LinkDown
         | Blocker::NoRc
         | Blocker::RcStale { .. }
@@ -78,20 +81,23 @@ pub fn gate_code(gate: &GateState) -> i32 {
         | Blocker::NoAttitude
         | Blocker::AttitudeStale { .. }
         | Blocker::NoRadioStatus
-        | Blocker::RadioStatusStale { .. } => 4,
+        | Blocker::RadioStatusStale { .. } => 5,
         Blocker::PipelineNotRunning
         | Blocker::PipelineStale { .. }
-        | Blocker::PipelineUnhealthy { .. } => 5,
-        Blocker::SetupRefused { .. } | Blocker::SetupChanged { .. } => 6,
-        Blocker::StabilisedModeOff { .. } => 7,
-        Blocker::OverrideInactive { .. } => 8,
+        | Blocker::PipelineUnhealthy { .. } => 6,
+        Blocker::SetupRefused { .. } | Blocker::SetupChanged { .. } => 7,
+        Blocker::StabilisedModeOff { .. } => 8,
+        Blocker::OverrideInactive { .. } => 9,
         Blocker::CommandPortDown { .. }
         | Blocker::NoAutopilotStatus { .. }
         | Blocker::AutopilotStatusStale { .. }
-        | Blocker::OverrideWarmingUp { .. } => 9,
-        Blocker::RollNotInEffect => 10,
+        | Blocker::OverrideWarmingUp { .. } => 10,
+        Blocker::RollNotInEffect => 11,
     }
 }
+
+/// The gate variable while faithd may roll.
+pub const GATE_OPEN: i32 = 1;
 
 /// What the goggles show, as the variables' values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,15 +184,20 @@ mod tests {
     #[test]
     fn the_view_names_the_gate_the_roll_and_the_nearest_obstacle() {
         let open = PilotView::new(&GateState::Open, 1800, Some(1.234));
-        assert_eq!(open.values(), [0, 1, 12]);
+        assert_eq!(open.values(), [1, 1, 12]);
         let manual = GateState::Closed(Blocker::SwitchNotAuto { value_us: 1000 });
-        assert_eq!(PilotView::new(&manual, 1500, None).values(), [1, 0, 0]);
+        assert_eq!(PilotView::new(&manual, 1500, None).values(), [2, 0, 0]);
         let camera = GateState::Closed(Blocker::PipelineUnhealthy {
             problem: PipelineProblem::NoEvents,
         });
         assert_eq!(
             PilotView::new(&camera, 1200, Some(42.0)).values(),
-            [5, -1, 99]
+            [6, -1, 99]
+        );
+        assert_eq!(
+            PilotView::default().gate,
+            5,
+            "before the first look: no telemetry"
         );
         assert_eq!(PilotView::new(&GateState::Open, 1500, Some(0.01)).ttc_ds, 1);
     }
@@ -197,20 +208,20 @@ mod tests {
         let mut w = GvarWriter::new(&config);
         let mut view = PilotView::new(&GateState::Open, 1500, None);
         let first: Vec<_> = (0..3).map(|k| w.next(&view, k).unwrap()).collect();
-        assert_eq!(first, vec![(5, 0), (6, 0), (7, 0)]);
+        assert_eq!(first, vec![(5, 1), (6, 0), (7, 0)]);
         assert_eq!(w.next(&view, 100_000), None, "nothing changed, nothing due");
         view.roll = 1;
         assert_eq!(w.next(&view, 200_000), Some((6, 1)));
         assert_eq!(
             w.next(&view, 2_000_000),
-            Some((5, 0)),
+            Some((5, 1)),
             "the oldest, when due"
         );
         assert_eq!(w.next(&view, 2_000_001), None, "the roll is due at 2.2 s");
         assert_eq!(w.next(&view, 2_000_002), Some((7, 0)));
         assert_eq!(w.next(&view, 2_200_000), Some((6, 1)));
         w.forget();
-        assert_eq!(w.next(&view, 2_200_001), Some((5, 0)));
+        assert_eq!(w.next(&view, 2_200_001), Some((5, 1)));
     }
 
     #[test]

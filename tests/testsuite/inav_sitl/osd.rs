@@ -24,9 +24,10 @@ fn gvars(bench: &Bench, from_us: i64, to_us: i64) -> Vec<(i64, [i32; 8])> {
         .collect()
 }
 
-/// Every state the pilot can see, read back from iNav's own variables: MANUAL (1),
-/// open (0), a roll to one side with the obstacle's time to contact, MANUAL again,
-/// and iNav's failsafe (3).
+/// Every state the pilot can see, read back from iNav's own variables: MANUAL (2),
+/// open (1), a roll to one side with the obstacle's time to contact, MANUAL again,
+/// and iNav's failsafe (4). The committed OSD script is taken by iNav as it is
+/// (`cli_save` fails on a line iNav refuses).
 #[test]
 fn the_goggles_show_each_state_of_faithd() {
     require_sitl!();
@@ -43,21 +44,21 @@ fn the_goggles_show_each_state_of_faithd() {
             .map(|s| s.t_us)
             .unwrap_or_else(|| panic!("the goggles never showed {what}:\n{}", daemon.log()))
     };
-    wait("MANUAL (gate 1)", &|v| v[GATE] == 1 && v[ROLL] == 0);
+    wait("MANUAL (gate 2)", &|v| v[GATE] == 2 && v[ROLL] == 0);
     let auto = bench.radio.set(CH_SWITCH, AUTO_US);
-    let open = wait("the gate open (0)", &|v| v[GATE] == 0);
+    let open = wait("the gate open (1)", &|v| v[GATE] == 1);
     let rolling = wait("a roll with its time to contact", &|v| {
         v[ROLL] != 0 && v[TTC] > 0
     });
     let manual = bench.radio.set(CH_SWITCH, MANUAL_US);
-    let closed = wait("MANUAL again (gate 1, no roll)", &|v| {
-        v[GATE] == 1 && v[ROLL] == 0
+    let closed = wait("MANUAL again (gate 2, no roll)", &|v| {
+        v[GATE] == 2 && v[ROLL] == 0
     });
     bench.radio.set(CH_SWITCH, AUTO_US);
-    wait("the gate open again", &|v| v[GATE] == 0);
+    wait("the gate open again", &|v| v[GATE] == 1);
     let lost = unix_us();
     bench.radio.transmit(false);
-    let failsafe = wait("iNav's failsafe (gate 3)", &|v| v[GATE] == 3);
+    let failsafe = wait("iNav's failsafe (gate 4)", &|v| v[GATE] == 4);
     let log = daemon.log();
     assert!(daemon.stop().success(), "{log}");
     let m = manoeuvres(&log);
