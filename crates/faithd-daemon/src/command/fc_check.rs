@@ -222,6 +222,8 @@ pub struct CheckItem {
 pub struct RouteFacts {
     /// Index in MSP_SET_RAW_RC of the radio channel that feeds iNav's roll.
     pub roll_frame_index: usize,
+    /// The radio channel (0-based) feeding iNav's roll, pitch, yaw and throttle.
+    pub rcmap: [u8; 4],
     /// Fresh frames iNav needs before it applies the override (its own failsafe
     /// recovery: 200 ms + failsafe_recovery_delay).
     pub warmup_us: i64,
@@ -323,6 +325,7 @@ fn route_facts(s: &FcSettings) -> Option<RouteFacts> {
     let status_bits = status_bits(&s.box_ids)?;
     Some(RouteFacts {
         roll_frame_index: usize::from(s.rcmap[0]),
+        rcmap: s.rcmap,
         warmup_us: warmup_us(s),
         hold_after_stop_us: hold_after_stop_us(s),
         attitude_period_us: s
@@ -814,10 +817,12 @@ pub enum Recheck {
 }
 
 /// What the stream reads again in flight, one request at a time: iNav reads these on
-/// every frame, and another MSP port (a configurator, a script) can change them.
-pub const RECHECKS: [Recheck; 3] = [
+/// every frame, and another MSP port (a configurator, a script) can change them. The
+/// override mask twice as often: a channel added to it takes faithd's frame at once.
+pub const RECHECKS: [Recheck; 4] = [
     Recheck::OverrideChannels,
     Recheck::ChannelMap,
+    Recheck::OverrideChannels,
     Recheck::ModeRanges,
 ];
 

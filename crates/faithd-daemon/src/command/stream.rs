@@ -188,18 +188,41 @@ pub async fn release_directly(
         source,
     })?;
     let mut port = MspPort::new(transport);
-    let centre = raw_rc_frame(facts.roll_frame_index, NEUTRAL_US, roll_rxrange);
+    let centre = raw_rc_frame(facts.rcmap, NEUTRAL_US, roll_rxrange, &[]);
     release(&mut port, &centre, repeats, period).await
 }
 
-/// MSP_SET_RAW_RC: the four flight channels at the centre, and in the slot of the
-/// radio channel that feeds iNav's roll the value that iNav, after scaling it by
-/// `rxrange`, uses as `roll_us`. iNav needs all four valid to trust the frame, and
-/// takes from it only the channels in msp_override_channels (roll alone, as
-/// `faithd check-fc` verified).
-pub fn raw_rc_frame(roll_frame_index: usize, roll_us: u16, roll_rxrange: RxRange) -> Vec<u8> {
-    let mut channels = [NEUTRAL_US; 4];
-    channels[roll_frame_index.min(3)] = roll_rxrange.aim(roll_us).map_or(roll_us, |(sent, _)| sent);
+/// MSP_SET_RAW_RC: in the slot of the radio channel that feeds iNav's roll, the value
+/// that iNav, after scaling it by `rxrange`, uses as `roll_us`; in every other slot
+/// what iNav last reported using on that channel (`in_use`, MSP_RC in iNav's order:
+/// roll, pitch, yaw, throttle, AUX...), the centre before the first report.
+///
+/// iNav takes from the frame only the channels in msp_override_channels (roll alone,
+/// as `faithd check-fc` verified), but it reads that mask on every frame
+/// (rx/msp_override.c, mspOverrideChannels), and a channel added to it from another
+/// port takes the frame's value at once, with no per-channel way to decline: a 0 or
+/// an invalid value makes iNav hold the last valid one (msp_override.c, the
+/// MAX_INVALID_RX_PULSE hold), a channel left out of the frame reads 0. So the other
+/// channels carry the pilot's own values, as iNav used them a report ago: until
+/// faithd notices the change and stops, a throttle added to the mask keeps the
+/// pilot's throttle instead of jumping to mid-stick, an ARM channel stays armed.
+pub fn raw_rc_frame(
+    rcmap: [u8; 4],
+    roll_us: u16,
+    roll_rxrange: RxRange,
+    in_use: &[u16],
+) -> Vec<u8> {
+    let mut channels = vec![NEUTRAL_US; in_use.len().max(4)];
+    for (i, &radio) in rcmap.iter().enumerate() {
+        if let (Some(slot), Some(&v)) = (channels.get_mut(usize::from(radio)), in_use.get(i)) {
+            *slot = v;
+        }
+    }
+    for (slot, &v) in channels.iter_mut().zip(in_use).skip(4) {
+        *slot = v;
+    }
+    channels[usize::from(rcmap[0]).min(3)] =
+        roll_rxrange.aim(roll_us).map_or(roll_us, |(sent, _)| sent);
     msp::set_raw_rc(&channels)
 }
 
@@ -319,23 +342,23 @@ enum Ask {
     Gvar(u8, i32),
 }
 
-/// MSP_RC and MSP2_INAV_STATUS in turn; every [`RECHECK_EVERY`] asks, the next part
-/// of the set-up check instead, and two of every ten MSP2_INAV_STATUS a variable for
-/// the OSD when one is due (five a second at most; the status still comes every
-/// 160 ms).
+/// MSP_RC and MSP2_INAV_STATUS in turn; two of every [`RECHECK_EVERY`] asks (MSP_RC's
+/// turns) the next part of the set-up check instead, and two others (MSP2_INAV_STATUS's)
+/// a variable for the OSD when one is due (five a second at most). MSP_RC and the
+/// status each still come at least every 160 ms.
 struct Rotation {
     n: usize,
     recheck: usize,
 }
 
-/// Every 400 ms with the roll frame in every other slot: the whole set-up (three
-/// requests) is read again every 1.2 s.
+/// Ten asks take 400 ms with the roll frame in every other slot: a recheck every
+/// 200 ms, the override mask ([`fc_check::RECHECKS`]) every 400 ms.
 const RECHECK_EVERY: usize = 10;
 
 impl Rotation {
     fn next(&mut self, osd: Option<&mut Osd>, now_us: i64) -> Ask {
         self.n += 1;
-        if self.n.is_multiple_of(RECHECK_EVERY) {
+        if matches!(self.n % RECHECK_EVERY, 0 | 4) {
             self.recheck += 1;
             return Ask::Recheck(fc_check::RECHECKS[self.recheck % fc_check::RECHECKS.len()]);
         }
@@ -413,6 +436,8 @@ struct Serving<'a> {
     sent_us: Option<u16>,
     last_roll_frame: tokio::time::Instant,
     refusals: u64,
+    /// The channels iNav last reported using (MSP_RC, iNav's order).
+    in_use_us: Vec<u16>,
 }
 
 /// Streams until the port fails, the set-up changes or the daemon asks to stop: in
@@ -487,15 +512,17 @@ impl<'a> Serving<'a> {
             sent_us: None,
             last_roll_frame: tokio::time::Instant::now(),
             refusals: 0,
+            in_use_us: Vec::new(),
         }
     }
 
     /// The roll frame with `roll_us`, aimed through iNav's `rxrange`.
     fn frame(&self, roll_us: u16) -> Vec<u8> {
         raw_rc_frame(
-            self.facts.roll_frame_index,
+            self.facts.rcmap,
             roll_us,
             self.settings.roll_rxrange,
+            &self.in_use_us,
         )
     }
 
@@ -587,7 +614,7 @@ impl<'a> Serving<'a> {
     /// Hands a reply on: the roll iNav uses to the commander, iNav's status to the
     /// gate, a set-up read again to the check (a change ends the stream).
     fn take_reply(
-        &self,
+        &mut self,
         status: &watch::Sender<RouteStatus>,
         ask: Option<Ask>,
         payload: &[u8],
@@ -595,6 +622,7 @@ impl<'a> Serving<'a> {
         match ask {
             None | Some(Ask::Gvar(..)) => {}
             Some(Ask::Rc) => {
+                self.in_use_us = msp_port::rc_values(payload).collect();
                 if let Some(roll_us) = msp_port::rc_values(payload).next() {
                     let report = RollReport {
                         t_us: self.clock.now_us(),
@@ -687,17 +715,33 @@ mod tests {
     #[test]
     fn frame_carries_the_roll_in_the_mapped_slot_and_the_centre_elsewhere() {
         let mut out = Vec::new();
-        msp::Decoder::default().push(&raw_rc_frame(1, 1800, RxRange::DEFAULT), &mut out);
+        let rcmap = [1, 0, 3, 2];
+        msp::Decoder::default().push(&raw_rc_frame(rcmap, 1800, RxRange::DEFAULT, &[]), &mut out);
         let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
         assert_eq!(values, vec![1500, 1800, 1500, 1500]);
         assert_eq!(out[0].command, msp::MSP_SET_RAW_RC);
+    }
+
+    /// What iNav reported using (its order: roll, pitch, yaw, throttle, AUX...) goes
+    /// back in the radio's order, the roll aside: a channel added to iNav's override
+    /// mask keeps the pilot's value.
+    #[test]
+    fn the_other_channels_carry_what_inav_uses_in_the_radios_order() {
+        let mut out = Vec::new();
+        // TAER: throttle on radio channel 1, roll on 2, pitch on 3, yaw on 4.
+        let rcmap = [1, 2, 3, 0];
+        let in_use = [1440, 1510, 1490, 1234, 1900, 1850];
+        let frame = raw_rc_frame(rcmap, 1800, RxRange::DEFAULT, &in_use);
+        msp::Decoder::default().push(&frame, &mut out);
+        let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
+        assert_eq!(values, vec![1234, 1800, 1510, 1490, 1900, 1850]);
     }
 
     #[test]
     fn frame_aims_the_roll_through_rxrange() {
         let mut out = Vec::new();
         let range = RxRange::new(988, 2012).unwrap();
-        msp::Decoder::default().push(&raw_rc_frame(0, 1800, range), &mut out);
+        msp::Decoder::default().push(&raw_rc_frame([0, 1, 3, 2], 1800, range, &[]), &mut out);
         let values: Vec<u16> = msp_port::rc_values(&out[0].payload).collect();
         assert_eq!(range.scale(values[0]), 1800);
     }
@@ -719,7 +763,10 @@ mod on_the_board {
     #[derive(Default)]
     struct Seen {
         roll: Vec<(i64, u16)>,
+        throttle: Vec<(i64, u16)>,
         port: PortLog,
+        /// Changes to make to iNav at its next millisecond (a configurator, the pilot).
+        pending: Vec<Box<dyn FnOnce(&mut InavMsp) + Send>>,
     }
 
     /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
@@ -742,21 +789,28 @@ mod on_the_board {
             let (mut rx, mut tx) = tokio::io::split(device);
             let mut tick = tokio::time::interval(Duration::from_millis(1));
             let mut buf = [0u8; 512];
+            // iNav runs on when faithd closes the port.
+            let mut open = true;
             loop {
                 tokio::select! {
                     biased;
                     _ = tick.tick() => {
+                        let pending = std::mem::take(&mut out.lock().unwrap().pending);
+                        for change in pending {
+                            change(&mut fc);
+                        }
                         fc.advance(clock.now_us());
                         let replies = fc.take_output();
-                        if !replies.is_empty() && tx.write_all(&replies).await.is_err() {
-                            return;
+                        if open && !replies.is_empty() && tx.write_all(&replies).await.is_err() {
+                            open = false;
                         }
                         let mut seen = out.lock().unwrap();
                         seen.roll.push((clock.now_us(), fc.roll_in_use()));
+                        seen.throttle.push((clock.now_us(), fc.channels_in_use()[3]));
                         seen.port = fc.log.clone();
                     }
-                    got = rx.read(&mut buf) => match got {
-                        Ok(0) | Err(_) => return,
+                    got = rx.read(&mut buf), if open => match got {
+                        Ok(0) | Err(_) => open = false,
                         Ok(n) => fc.receive(&buf[..n], clock.now_us()),
                     },
                 }
@@ -822,6 +876,72 @@ mod on_the_board {
                 .iter()
                 .all(|(_, command)| *command != msp::MSP_SET_RAW_RC),
             "no roll frame reached iNav"
+        );
+    }
+
+    /// Throttle added to iNav's override mask from another port while the pilot lowers
+    /// it: iNav keeps the pilot's throttle of a report ago (never faithd's centre)
+    /// until faithd notices, stops, and iNav's override times out; then the pilot's
+    /// live stick. faithd reads the mask every 400 ms: the bound is that, a reply, and
+    /// iNav's hold (0.2 s to notice + 0.2 s + failsafe_delay 0.5 s).
+    #[tokio::test(start_paused = true)]
+    async fn a_channel_added_to_the_override_keeps_the_pilots_value_until_faithd_lets_go() {
+        let clock = DaemonClock::simulated(0);
+        let (endpoint, seen) = inav(clock);
+        let heartbeat = crate::supervise::Supervisor::new(clock).register("stream");
+        let stream = spawn(endpoint, settings(), clock, heartbeat, no_view());
+        tokio::time::sleep(Duration::from_millis(2300)).await;
+        let changed_us = clock.now_us();
+        seen.lock()
+            .unwrap()
+            .pending
+            .push(Box::new(|fc: &mut InavMsp| {
+                fc.setup.msp_override_channels = 0b1001;
+                fc.set_pilot(Pilot::flying([
+                    1440, 1500, 1500, 1300, 1900, 1900, 1000, 1000,
+                ]));
+            }));
+        tokio::time::sleep(Duration::from_secs(3)).await;
+        assert!(
+            stream.status.borrow().path.setup_changed || stream.status.borrow().path.setup_refused
+        );
+        let seen = seen.lock().unwrap();
+        let after: Vec<(i64, u16)> = seen
+            .throttle
+            .iter()
+            .filter(|(t, _)| *t > changed_us)
+            .copied()
+            .collect();
+        assert!(
+            after.iter().all(|(_, v)| *v == 1400 || *v == 1300),
+            "throttle only ever the pilot's: {:?}",
+            after
+                .iter()
+                .map(|(_, v)| v)
+                .collect::<std::collections::BTreeSet<_>>()
+        );
+        assert_eq!(
+            after[0].1, 1400,
+            "the frame's throttle, the pilot's of a report ago"
+        );
+        let back_us = after
+            .iter()
+            .find(|(_, v)| *v == 1300)
+            .expect("the pilot's throttle back")
+            .0;
+        let held_us = back_us - changed_us;
+        eprintln!(
+            "measured (model): throttle added to the override: the pilot's of a report ago for {held_us} us, then the pilot's live stick"
+        );
+        assert!(
+            held_us <= 400_000 + 2 * 20_000 + 900_000 + 20_000,
+            "faithd's frame held throttle {held_us} us after the change"
+        );
+        assert!(
+            after
+                .iter()
+                .filter(|(t, _)| *t >= back_us)
+                .all(|(_, v)| *v == 1300)
         );
     }
 
