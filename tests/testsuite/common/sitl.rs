@@ -14,7 +14,7 @@ use std::ops::Deref;
 use std::path::PathBuf;
 
 pub use faithd_lab::inav_sitl::clock::unix_us;
-pub use faithd_lab::inav_sitl::monitor::{MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE, Sample};
+pub use faithd_lab::inav_sitl::monitor::{MODE_ANGLE, MODE_FAILSAFE, MODE_MSP_RC_OVERRIDE};
 pub use faithd_lab::inav_sitl::msp_client::MspClient;
 pub use faithd_lab::inav_sitl::process::{UART_CLI, UART_MAVLINK, UART_MONITOR, UART_MSP_FAITHD};
 pub use faithd_lab::inav_sitl::radio::{

@@ -797,8 +797,11 @@ fn a_calibrated_receiver_gets_the_roll_meant() {
 }
 
 /// A configurator on another MSP port adds throttle to msp_override_channels in
-/// flight: iNav would use faithd's centre on throttle. faithd reads the set-up again
-/// within its traffic budget, stops streaming and names the change.
+/// flight while the pilot raises the throttle: iNav takes faithd's frame on throttle at
+/// once, and that frame carries the pilot's throttle as iNav used it a report before,
+/// never faithd's centre. faithd reads the set-up again within its traffic budget,
+/// stops streaming and names the change; iNav's override then times out and the
+/// pilot's live throttle is back.
 #[test]
 fn a_set_up_changed_in_flight_is_noticed_and_the_stream_stops() {
     require_sitl!();
@@ -810,6 +813,8 @@ fn a_set_up_changed_in_flight_is_noticed_and_the_stream_stops() {
         "{}",
         daemon.log()
     );
+    let pilot_before = bench.monitor.latest().expect("a sample").rc[3];
+    let pilot_after = pilot_before + 200;
     // MSP2_COMMON_SET_SETTING on the CLI's port: msp_override_channels = 9.
     const MSP2_COMMON_SET_SETTING: u16 = 0x1004;
     let mut configurator = MspClient::connect(bench.sitl.port(UART_CLI)).expect("UART1");
@@ -819,6 +824,7 @@ fn a_set_up_changed_in_flight_is_noticed_and_the_stream_stops() {
         .request(MSP2_COMMON_SET_SETTING, &payload)
         .expect("iNav takes the setting");
     let changed = unix_us();
+    bench.radio.set(CH_THROTTLE, pilot_after);
     assert!(
         daemon.wait_for_log(
             "set-up changed in flight (msp_override_channels is now 9, was 1)",
@@ -833,22 +839,37 @@ fn a_set_up_changed_in_flight_is_noticed_and_the_stream_stops() {
     let log = daemon.log();
     assert!(daemon.stop().success(), "{log}");
     assert!(log.contains("set msp_override_channels = 1"), "{log}");
-    // What iNav used on throttle: faithd's centre until the stream stopped and iNav's
-    // override timed out, then the pilot's again.
+    // What iNav used on throttle: the pilot's earlier throttle from faithd's frame
+    // until the stream stopped and iNav's override timed out, then the pilot's live
+    // one. Never faithd's centre.
     let after = bench.monitor.between(changed, unix_us());
-    let centre_on_throttle: Vec<&Sample> = after.iter().filter(|s| s.rc[3] == NEUTRAL_US).collect();
-    let last = centre_on_throttle.last().map_or(changed, |s| s.t_us);
-    eprintln!(
-        "measured: msp_override_channels changed in flight: noticed {:.0} ms after, faithd's centre on throttle until {:.0} ms after",
-        (noticed - changed) as f64 / 1000.0,
-        (last - changed) as f64 / 1000.0
-    );
-    assert!(noticed - changed <= 1_500_000);
     assert!(
         after
             .iter()
-            .filter(|s| s.t_us > last)
-            .all(|s| s.rc[3] != NEUTRAL_US),
+            .all(|s| s.rc[3] == pilot_before || s.rc[3] == pilot_after),
+        "throttle other than the pilot's: {:?}",
+        after
+            .iter()
+            .map(|s| s.rc[3])
+            .collect::<std::collections::BTreeSet<_>>()
+    );
+    let back = after
+        .iter()
+        .find(|s| s.rc[3] == pilot_after)
+        .expect("the pilot's throttle back")
+        .t_us;
+    eprintln!(
+        "measured: msp_override_channels changed in flight: noticed {:.0} ms after; throttle held at the pilot's earlier {pilot_before} us by faithd's frame until {:.0} ms after (the pilot's {pilot_after} us then), never faithd's centre",
+        (noticed - changed) as f64 / 1000.0,
+        (back - changed) as f64 / 1000.0
+    );
+    assert!(noticed - changed <= 1_000_000);
+    assert!(back - changed <= 1_500_000);
+    assert!(
+        after
+            .iter()
+            .filter(|s| s.t_us >= back)
+            .all(|s| s.rc[3] == pilot_after),
         "throttle back to the pilot's"
     );
 }
