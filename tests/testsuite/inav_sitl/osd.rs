@@ -59,8 +59,17 @@ fn the_goggles_show_each_state_of_faithd() {
     let lost = unix_us();
     bench.radio.transmit(false);
     let failsafe = wait("iNav's failsafe (gate 4)", &|v| v[GATE] == 4);
+    // A stopped faithd leaves nothing on the goggles: the gate's variable back to 0.
+    let stopped = unix_us();
+    assert!(daemon.stop().success(), "{}", daemon.log());
     let log = daemon.log();
-    assert!(daemon.stop().success(), "{log}");
+    let cleared = bench
+        .monitor
+        .wait_until(Duration::from_secs(2), |s| {
+            s.t_us >= stopped && s.gvars.is_some_and(|g| g[GATE] == 0)
+        })
+        .unwrap_or_else(|| panic!("the gate's variable not cleared on SIGTERM:\n{log}"))
+        .t_us;
     let m = manoeuvres(&log);
     assert!(!m.is_empty(), "{log}");
     let shown = gvars(&bench, m[0].start_us, m[0].start_us + 1_000_000);
@@ -70,10 +79,11 @@ fn the_goggles_show_each_state_of_faithd() {
         "the roll shown is the side commanded ({side}): {shown:?}"
     );
     eprintln!(
-        "measured (goggles): open {:.0} ms after AUTO, a roll shown {:.0} ms after the manoeuvre started, MANUAL shown {:.0} ms after the switch, failsafe shown {:.0} ms after the radio stopped",
+        "measured (goggles): open {:.0} ms after AUTO, a roll shown {:.0} ms after the manoeuvre started, MANUAL shown {:.0} ms after the switch, failsafe shown {:.0} ms after the radio stopped, cleared {:.0} ms after SIGTERM",
         (open - auto) as f64 / 1000.0,
         (rolling - m[0].start_us) as f64 / 1000.0,
         (closed - manual) as f64 / 1000.0,
-        (failsafe - lost) as f64 / 1000.0
+        (failsafe - lost) as f64 / 1000.0,
+        (cleared - stopped) as f64 / 1000.0
     );
 }
