@@ -655,13 +655,14 @@ impl<'a> Serving<'a> {
     }
 
     /// Writes the centre as the daemon asked and answers how many went out.
-    /// With the OSD on, the gate's variable then goes to 0, which the goggles show as
-    /// nothing of faithd: a stopped faithd does not leave `FAITH OPEN` on the screen.
+    /// With the OSD on, the gate's variable then goes to 0 (one more slot), which the
+    /// goggles show as nothing of faithd: a stopped faithd does not leave `FAITH OPEN`
+    /// on the screen.
     async fn release_and_end(&mut self, req: StopRequest) -> Ended {
         let centre = self.frame(NEUTRAL_US);
         let sent = release(self.port, &centre, req.repeats, self.settings.roll_period).await;
-        let _ = req.done.send(sent);
-        if self.settings.osd.enabled {
+        // Before the answer: the daemon exits once it has it.
+        if self.settings.osd.enabled && sent.is_ok() {
             let mut payload = vec![self.settings.osd.first_gvar];
             payload.extend_from_slice(&0i32.to_le_bytes());
             let slot = Duration::from_micros(msp_port::MSP_SLOT_US as u64);
@@ -674,6 +675,7 @@ impl<'a> Serving<'a> {
                 let _ = self.port.reply(MSP2_INAV_SET_GVAR, slot).await;
             }
         }
+        let _ = req.done.send(sent);
         Ended::Stopped
     }
 }
