@@ -1,11 +1,13 @@
 //! Any bytes from the flight controller's MSP port, in any chunking, give frames or
 //! nothing, never a panic; every reply faithd reads from them (MSP_RC, the status
-//! bits, settings) decodes or is refused.
+//! bits, settings, the MSP-only link's gyro, channels, status and angles) decodes or
+//! is refused.
 #![no_main]
 
 use faithd::command::fc_check::StatusBits;
 use faithd::command::msp::Decoder;
 use faithd::command::msp_port::{le_unsigned, rc_values};
+use faithd::link::over_msp;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
@@ -27,5 +29,13 @@ fuzz_target!(|data: &[u8]| {
         let _ = rc_values(&f.payload).count();
         let _ = le_unsigned(&f.payload);
         let _ = bits.decode(&f.payload);
+        for command in [102, 105, 108, 0x2000] {
+            for msg in over_msp::messages(bits, command, &f.payload, i64::from(split) * 1000) {
+                // What the link hands on: finite angles, whatever came in.
+                if let mavlink::dialects::common::MavMessage::ATTITUDE(a) = msg {
+                    assert!(a.roll.is_finite() && a.rollspeed.is_finite());
+                }
+            }
+        }
     }
 });

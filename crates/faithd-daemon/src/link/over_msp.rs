@@ -213,6 +213,24 @@ async fn serve(
     unreachable!("the schedule cycles forever")
 }
 
+/// The messages a reply to `command` makes on a fresh link (for the fuzzer: any
+/// bytes give messages or none, never a panic).
+pub fn messages(bits: StatusBits, command: u16, payload: &[u8], stamp_us: i64) -> Vec<MavMessage> {
+    let Some(ask) = SCHEDULE.iter().find(|a| a.command() == command) else {
+        return Vec::new();
+    };
+    let timing = MspLinkTiming {
+        reply_timeout: Duration::ZERO,
+        reconnect_min: Duration::ZERO,
+        reconnect_max: Duration::ZERO,
+        autopilot_system_id: 1,
+        autopilot_component_id: 1,
+    };
+    let mut reader = Reader::new(bits, &timing);
+    reader.read(Ask::Attitude, payload, stamp_us);
+    reader.read(*ask, payload, stamp_us)
+}
+
 /// When iNav read what a reply of `payload_bytes` carries, received whole at
 /// `rx_us`: before it, by the reply's time on the wire (10 bits a byte), to the
 /// millisecond that MAVLink's `time_boot_ms` carries too.
