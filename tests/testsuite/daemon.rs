@@ -82,8 +82,10 @@ fn a_roll_in_auto_lasts_its_time_and_touches_roll_alone() {
         daemon.log()
     );
     assert_eq!(value, CENTRE_US, "AUTO holds the centre after the roll");
-    // Every frame: four channels, roll in the roll slot, the centre elsewhere (iNav
-    // takes roll alone from it: msp_override_channels = 1).
+    // Every frame: roll in the roll slot, and elsewhere what iNav reports using (the
+    // pilot's throttle 1400 in the radio's third slot, the AUX channels), or the centre
+    // on the four flight channels before the first report. iNav takes roll alone from
+    // it (msp_override_channels = 1); a channel added to that mask keeps the pilot's.
     let frames = mock.msp.frames.lock().unwrap().clone();
     let span = frames.last().unwrap().0 - frames[0].0;
     let expected = (span.as_secs_f64() / ROLL_FRAME_PERIOD.as_secs_f64()) as usize;
@@ -92,11 +94,13 @@ fn a_roll_in_auto_lasts_its_time_and_touches_roll_alone() {
         "{} frames in {span:?}",
         frames.len()
     );
+    let mut pilots = vec![CENTRE_US, 1400, CENTRE_US, 1900, 1900, 1000, 1000];
+    pilots.extend([CENTRE_US; 10]);
     for (_, ch) in &frames {
-        assert_eq!(ch.len(), 4, "{ch:?}");
         assert!(ch[0] == CENTRE_US || is_roll(ch[0]), "{ch:?}");
-        assert_eq!(ch[1..], [CENTRE_US; 3], "{ch:?}");
+        assert!(ch[1..] == [CENTRE_US; 3] || ch[1..] == pilots[..], "{ch:?}");
     }
+    assert!(frames.iter().any(|(_, ch)| ch[1..] == pilots[..]));
     let gaps = frames.windows(2).map(|w| w[1].0 - w[0].0);
     let worst = gaps.max().unwrap();
     assert!(
