@@ -1,5 +1,5 @@
 //! faithd's model of iNav 9.1 as it runs on a flight controller, written from iNav's
-//! source (`../shared/inav.md` has the facts and their file paths): its MSP port and
+//! source (`../shared/inav.md` has the facts and their file paths): its MSP ports and
 //! MSP RC override ([`msp`]), and the MAVLink telemetry it sends ([`mavlink`]).
 //!
 //! A model encodes assumptions: this one is faithful where a roll's safety depends on

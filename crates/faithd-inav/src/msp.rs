@@ -34,10 +34,26 @@
 //!   and fc/rc_curves.c: [`InavMsp::roll_target`].
 //! - **The CLI** (fc/cli.c): enough of it to read `rxrange`, which no MSP command
 //!   reports; `exit` reboots the flight controller (`cliExit` -> `cliReboot`).
+//! - **Several MSP ports** on one board ([`InavMsp::add_port`]): each has its own ring,
+//!   parser and one command per serial task run (msp/msp_serial.c, `mspSerialProcess`
+//!   serves every port in each run, at most `MAX_MSP_PORT_COUNT` = 3, msp_serial.h:25);
+//!   they share everything behind them (the override, the modes, the global
+//!   variables). The CLI is on one port at a time (fc/cli.c, `cliEnter` returns when
+//!   `cliMode` is already set) and MSP goes on on the others (fc/fc_tasks.c,
+//!   `taskHandleSerial`: "Allow MSP processing even if in CLI mode").
+//! - **Telemetry over MSP** (fc/fc_msp.c): MSP_ATTITUDE and MSP_RAW_IMU from the
+//!   vehicle's motion as iNav estimates it ([`Motion`]), with iNav's own rounding.
+//! - **Global variables** (programming/global_variables.c): eight int32, zero at boot
+//!   (`gvInit` sets each to its configured default), each write clamped to the
+//!   variable's configured min..max (INT16_MIN..INT16_MAX by default); set with
+//!   MSP2_INAV_SET_GVAR, read with MSP2_INAV_GVAR_STATUS.
 //!
 //! Simplified, and said so: the override values are applied the moment they change
 //! (iNav applies them at the pilot's next receiver frame, a few ms later); MSP v1
-//! frames are not modelled (faithd speaks v2 only); one port.
+//! frames are not modelled (faithd speaks v2 only); a `#` enters the CLI armed too
+//! (iNav evaluates non-MSP bytes only while disarmed, fc/fc_tasks.c); the
+//! accelerometer reads 1 g straight down the board's z axis whatever the motion; no
+//! logic condition writes the global variables.
 
 use crate::frame::{self, Decoder, crc8_dvb_s2};
 
@@ -52,6 +68,13 @@ pub const MSP_BOXIDS: u16 = 119;
 pub const MSP_SET_RAW_RC: u16 = 200;
 pub const MSP2_COMMON_SETTING: u16 = 0x1003;
 pub const MSP2_INAV_STATUS: u16 = 0x2000;
+pub const MSP_RAW_IMU: u16 = 102;
+pub const MSP_ATTITUDE: u16 = 108;
+pub const MSP2_INAV_GVAR_STATUS: u16 = 0x2027;
+pub const MSP2_INAV_SET_GVAR: u16 = 0x2214;
+
+/// programming/global_variables.h:29 (9.x and 10.x alike).
+pub const MAX_GLOBAL_VARIABLES: usize = 8;
 
 /// MSP_BOXIDS as iNav 9.1's SITL build answers it: the order of MSP2_INAV_STATUS's
 /// mode bits.
@@ -121,6 +144,36 @@ pub struct Setup {
     pub deadband_us: u16,
     pub roll_rate: u8,
     pub max_angle_inclination_rll_ddeg: u16,
+    /// What MSP_FC_VERSION answers: major, minor, patch (build/version.h, from
+    /// CMakeLists.txt's `project(INAV VERSION ..)`). Nothing else in the model depends
+    /// on it: the other answers are iNav 9.1's, and those faithd asks are the same in
+    /// the 10.x branch (fc/fc_msp.c), but MSP_BOXIDS ([`BOX_IDS`]) is a build's own.
+    /// The 10.x branch's SITL build itself still says 9.1.0 (its CMakeLists.txt:56).
+    pub fc_version: [u8; 3],
+    /// `gvar <i> <default> <min> <max>` (fc/cli.c, `cliGvar`): each global variable's
+    /// value at boot and the range its writes are clamped to.
+    pub gvar_config: [GvarConfig; MAX_GLOBAL_VARIABLES],
+}
+
+/// One global variable's configuration (programming/global_variables.h,
+/// `globalVariableConfig_t`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GvarConfig {
+    pub default_value: i32,
+    pub min: i32,
+    pub max: i32,
+}
+
+impl Default for GvarConfig {
+    /// programming/global_variables.c:41-48, `pgResetFn_globalVariableConfigs`:
+    /// min INT16_MIN, max INT16_MAX, default 0.
+    fn default() -> Self {
+        Self {
+            default_value: 0,
+            min: i32::from(i16::MIN),
+            max: i32::from(i16::MAX),
+        }
+    }
 }
 
 impl Default for Setup {
@@ -142,6 +195,8 @@ impl Default for Setup {
             deadband_us: 2,
             roll_rate: 20,
             max_angle_inclination_rll_ddeg: 450,
+            fc_version: [9, 1, 0],
+            gvar_config: [GvarConfig::default(); MAX_GLOBAL_VARIABLES],
         }
     }
 }
@@ -203,6 +258,53 @@ impl Pilot {
     }
 }
 
+/// The vehicle's motion as iNav estimates it, in iNav's own variables and signs: what
+/// MSP_ATTITUDE and MSP_RAW_IMU report.
+///
+/// - `roll_ddeg`, `pitch_ddeg`, `yaw_ddeg`: `attitude.values` (flight/imu.h:31-39),
+///   decidegrees, from the rotation matrix in `imuUpdateEulerAngles` (flight/imu.c
+///   9:624-629, 10:620-625). Roll positive = right wing down. Pitch positive = nose
+///   DOWN: iNav's MAVLink negates it for ATTITUDE (telemetry/mavlink.c:726,
+///   `-attitude.values.pitch`), as the RealFlight bridge does going in
+///   (target/SITL/sim/realFlight.c:346). Yaw is the heading, clockwise from north,
+///   0..3599 (imu.c adds 3600 to a negative one).
+/// - `gyro_dps`: `gyro.gyroADCf` (sensors/gyro.c), degrees per second, float, in the
+///   body frame of iNav's rate loop: roll positive = rolling right; pitch positive =
+///   nose going DOWN (realFlight.c:371 and SITL's xplane.c:609 negate the simulator's
+///   pitch rate); yaw positive = nose going LEFT, counter-clockwise seen from above
+///   (xplane.c:610 negates X-Plane's yaw rate; fc/fc_core.c:404 negates the yaw stick),
+///   the opposite sense to the heading's. Read from the code, not measured. iNav's
+///   MAVLink ATTITUDE sends these same numbers unconverted as its "rad/s" rates
+///   (telemetry/mavlink.c:730-734), while it flips the pitch angle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Motion {
+    pub roll_ddeg: i16,
+    pub pitch_ddeg: i16,
+    pub yaw_ddeg: i16,
+    pub gyro_dps: [f32; 3],
+}
+
+/// `lrintf` then a cast to int16_t, as iNav turns a float into an MSP int16
+/// (sensors/gyro.c `gyroRateDps`, fc/fc_msp.c MSP_RAW_IMU): rounded to nearest in the
+/// default rounding mode, ties to EVEN (12.5 -> 12, 13.5 -> 14, -12.5 -> -12; C's
+/// `lrintf` is not `lroundf`), and the long narrowed to 16 bits modulo 2^16 (GCC's
+/// conversion: 40000 -> -25536, no saturation).
+pub fn lrintf_i16(v: f32) -> i16 {
+    v.round_ties_even() as i32 as i16
+}
+
+/// common/maths.c:168-176, `constrain`: below `low` is `low`, else above `high` is
+/// `high` (no panic when a CLI set min above max, unlike `i32::clamp`).
+fn constrain(amt: i32, low: i32, high: i32) -> i32 {
+    if amt < low {
+        low
+    } else if amt > high {
+        high
+    } else {
+        amt
+    }
+}
+
 /// What iNav's controller makes of the roll channel it uses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RollTarget {
@@ -225,51 +327,110 @@ pub struct PortLog {
     pub last_loss_us: Option<i64>,
     /// Every MSP_SET_RAW_RC served: (time, channels).
     pub frames: Vec<(i64, Vec<u16>)>,
+    /// Every MSP2_INAV_SET_GVAR iNav accepted: (time served, index, the value sent,
+    /// before iNav clamped it; [`InavMsp::gvars`] has what it holds).
+    pub gvar_writes: Vec<(i64, u8, i32)>,
 }
 
-/// One MSP port of iNav and the override behind it.
+/// iNav's MSP ports (one to begin with, more with [`InavMsp::add_port`]) and what is
+/// behind them: the override, the modes, the global variables. The methods without a
+/// port number are the first port's.
 #[derive(Debug)]
 pub struct InavMsp {
     pub setup: Setup,
     pilot: Pilot,
-    ring: Ring,
-    parser: Parser,
-    /// Decodes the arriving bytes for [`PortLog::arrived`] (not iNav's: a witness).
-    witness: Decoder,
-    pending_cli: bool,
-    cli: Option<Vec<u8>>,
+    motion: Motion,
+    /// programming/global_variables.c:37, `globalVariableState` (RAM).
+    gvars: [i32; MAX_GLOBAL_VARIABLES],
+    ports: Vec<Port>,
+    /// The CLI: the port it took and its input so far.
+    cli: Option<Cli>,
     rebooting_until_us: Option<i64>,
     /// The next serial task run and the next RX check (every millisecond).
     next_serial_us: i64,
     next_rx_us: i64,
-    out: Vec<u8>,
     ovr: Override,
+    /// The first port's log.
     pub log: PortLog,
+    /// The other ports' logs, from the second port on.
+    more_logs: Vec<PortLog>,
     /// A fault for tests: iNav acknowledges MSP_SET_RAW_RC but its override never
     /// sees the frames (what a set-up that reads right but misbehaves amounts to).
     pub ignore_frames: bool,
 }
 
+/// One MSP port: its UART's receive ring, its parser, what iNav writes to it.
+#[derive(Debug, Default)]
+struct Port {
+    ring: Ring,
+    parser: Parser,
+    /// Decodes the arriving bytes for [`PortLog::arrived`] (not iNav's: a witness).
+    witness: Decoder,
+    pending_cli: bool,
+    out: Vec<u8>,
+}
+
+#[derive(Debug)]
+struct Cli {
+    port: usize,
+    line: Vec<u8>,
+}
+
 impl InavMsp {
-    /// A board that booted at `boot_us`.
+    /// A board that booted at `boot_us`, with one MSP port.
     pub fn new(setup: Setup, boot_us: i64) -> Self {
         let ovr = Override::init(&setup, boot_us);
+        // gvInit (global_variables.c:64-68, at boot: fc/fc_init.c:308): each variable
+        // its configured default, not clamped.
+        let gvars = setup.gvar_config.map(|g| g.default_value);
         Self {
             setup,
             pilot: Pilot::flying([1500, 1500, 1500, 1000, 1000, 1000, 1000, 1000]),
-            ring: Ring::default(),
-            parser: Parser::default(),
-            witness: Default::default(),
-            pending_cli: false,
+            motion: Motion::default(),
+            gvars,
+            ports: vec![Port::default()],
             cli: None,
             rebooting_until_us: None,
             next_serial_us: boot_us + SERIAL_TASK_US,
             next_rx_us: boot_us + 1000,
-            out: Vec::new(),
             ovr,
             log: PortLog::default(),
+            more_logs: Vec::new(),
             ignore_frames: false,
         }
+    }
+
+    /// Another MSP port on the board (iNav has at most 3); its number for
+    /// [`Self::receive_on`], [`Self::take_output_on`] and [`Self::port_log`].
+    pub fn add_port(&mut self) -> usize {
+        self.ports.push(Port::default());
+        self.more_logs.push(PortLog::default());
+        self.ports.len() - 1
+    }
+
+    /// What port `port` did (0 is the first, [`Self::log`]).
+    pub fn port_log(&self, port: usize) -> &PortLog {
+        match port {
+            0 => &self.log,
+            n => &self.more_logs[n - 1],
+        }
+    }
+
+    fn port_log_mut(&mut self, port: usize) -> &mut PortLog {
+        match port {
+            0 => &mut self.log,
+            n => &mut self.more_logs[n - 1],
+        }
+    }
+
+    /// The vehicle's motion as iNav estimates it from now on.
+    pub fn set_motion(&mut self, motion: Motion) {
+        self.motion = motion;
+    }
+
+    /// iNav's global variables now (MSP2_INAV_GVAR_STATUS).
+    pub fn gvars(&self) -> [i32; MAX_GLOBAL_VARIABLES] {
+        self.gvars
     }
 
     /// The pilot's side as of now.
@@ -277,25 +438,42 @@ impl InavMsp {
         self.pilot = pilot;
     }
 
-    /// Bytes from faithd reaching the UART at `now_us` (after iNav has run up to then).
+    /// Bytes from faithd reaching the first port's UART at `now_us` (after iNav has
+    /// run up to then).
     pub fn receive(&mut self, bytes: &[u8], now_us: i64) {
+        self.receive_on(0, bytes, now_us);
+    }
+
+    /// Bytes reaching port `port`'s UART at `now_us`.
+    pub fn receive_on(&mut self, port: usize, bytes: &[u8], now_us: i64) {
         self.advance(now_us);
         let mut frames = Vec::new();
-        self.witness.push(bytes, &mut frames);
-        self.log.arrived.extend(
+        self.ports[port].witness.push(bytes, &mut frames);
+        let rebooting = self.rebooting_until_us.is_some();
+        let Self {
+            ports,
+            log,
+            more_logs,
+            ..
+        } = self;
+        let log = match port {
+            0 => log,
+            n => &mut more_logs[n - 1],
+        };
+        log.arrived.extend(
             frames
                 .iter()
                 .filter(|f| f.direction == b'<')
                 .map(|f| (now_us, f.command)),
         );
-        if self.rebooting_until_us.is_some() {
-            self.log.bytes_lost += bytes.len() as u64;
+        if rebooting {
+            log.bytes_lost += bytes.len() as u64;
             return;
         }
         for &b in bytes {
-            if self.ring.push(b) {
-                self.log.bytes_lost += RX_RING_BYTES as u64;
-                self.log.last_loss_us = Some(now_us);
+            if ports[port].ring.push(b) {
+                log.bytes_lost += RX_RING_BYTES as u64;
+                log.last_loss_us = Some(now_us);
             }
         }
     }
@@ -329,9 +507,14 @@ impl InavMsp {
         }
     }
 
-    /// Replies iNav has written since the last call.
+    /// Replies iNav has written to the first port since the last call.
     pub fn take_output(&mut self) -> Vec<u8> {
-        std::mem::take(&mut self.out)
+        self.take_output_on(0)
+    }
+
+    /// What iNav has written to port `port` since the last call.
+    pub fn take_output_on(&mut self, port: usize) -> Vec<u8> {
+        std::mem::take(&mut self.ports[port].out)
     }
 
     /// The channels iNav uses now (MSP_RC, RC_CHANNELS), in its order.
@@ -383,33 +566,53 @@ impl InavMsp {
         self.cli.is_some()
     }
 
-    /// msp/msp_serial.c, `mspSerialProcessOnePort`: with bytes waiting, parse until
-    /// one command is complete and answer it; with none, act on a pending `#`.
+    /// fc/fc_tasks.c, `taskHandleSerial`: the CLI first (`cliProcess`), then every
+    /// MSP port (`mspSerialProcess`), the CLI's own port excepted (the CLI has read
+    /// its bytes).
     fn serial_task(&mut self, now_us: i64) {
-        if let Some(line) = self.cli.as_mut() {
-            while let Some(b) = self.ring.pop() {
-                line.push(b);
+        if let Some(cli) = self.cli.as_mut() {
+            let ring = &mut self.ports[cli.port].ring;
+            while let Some(b) = ring.pop() {
+                cli.line.push(b);
             }
             self.run_cli(now_us);
-            return;
+            if self.rebooting_until_us.is_some() {
+                return;
+            }
         }
-        if self.ring.is_empty() {
-            if std::mem::take(&mut self.pending_cli) {
-                self.cli = Some(Vec::new());
-                self.out.extend_from_slice(
+        for port in 0..self.ports.len() {
+            if self.cli.as_ref().is_some_and(|c| c.port == port) {
+                continue;
+            }
+            self.msp_one_port(port, now_us);
+        }
+    }
+
+    /// msp/msp_serial.c, `mspSerialProcessOnePort`: with bytes waiting, parse until
+    /// one command is complete and answer it; with none, act on a pending `#` (the
+    /// CLI is on one port at a time: fc/cli.c, `cliEnter`).
+    fn msp_one_port(&mut self, port: usize, now_us: i64) {
+        let p = &mut self.ports[port];
+        if p.ring.is_empty() {
+            if std::mem::take(&mut p.pending_cli) && self.cli.is_none() {
+                self.cli = Some(Cli {
+                    port,
+                    line: Vec::new(),
+                });
+                p.out.extend_from_slice(
                     b"\r\nEntering CLI Mode, type 'exit' to return, or 'help'\r\n\r\n# ",
                 );
             }
             return;
         }
-        self.pending_cli = false;
-        while let Some(b) = self.ring.pop() {
-            match self.parser.push(b) {
-                Parsed::NotMsp if b == b'#' => self.pending_cli = true,
+        p.pending_cli = false;
+        while let Some(b) = self.ports[port].ring.pop() {
+            match self.ports[port].parser.push(b) {
+                Parsed::NotMsp if b == b'#' => self.ports[port].pending_cli = true,
                 Parsed::Command(command, payload) => {
-                    self.log.served.push((now_us, command));
-                    let reply = self.answer(command, &payload, now_us);
-                    self.out.extend(match reply {
+                    self.port_log_mut(port).served.push((now_us, command));
+                    let reply = self.answer(port, command, &payload, now_us);
+                    self.ports[port].out.extend(match reply {
                         Some(p) => encode(b'>', command, &p),
                         None => encode(b'!', command, &[]),
                     });
@@ -420,11 +623,20 @@ impl InavMsp {
         }
     }
 
-    fn answer(&mut self, command: u16, payload: &[u8], now_us: i64) -> Option<Vec<u8>> {
+    /// fc/fc_msp.c, `mspFcProcessCommand`: the reply's payload, `None` for an error
+    /// reply (`MSP_RESULT_ERROR`, or a command the model does not know).
+    fn answer(
+        &mut self,
+        port: usize,
+        command: u16,
+        payload: &[u8],
+        now_us: i64,
+    ) -> Option<Vec<u8>> {
         let u16s = |v: &[u16]| v.iter().flat_map(|c| c.to_le_bytes()).collect::<Vec<u8>>();
         match command {
             MSP_FC_VARIANT => Some(b"INAV".to_vec()),
-            MSP_FC_VERSION => Some(vec![9, 1, 0]),
+            // fc_msp.c 9:403-407, 10:473-477.
+            MSP_FC_VERSION => Some(self.setup.fc_version.to_vec()),
             MSP_RX_MAP => Some(self.setup.rcmap.to_vec()),
             MSP_MODE_RANGES => {
                 let mut out = vec![0u8; 40 * 4];
@@ -450,14 +662,64 @@ impl InavMsp {
                 if !self.ignore_frames {
                     self.ovr.frame(&channels);
                 }
-                self.log.frames.push((now_us, channels));
+                self.port_log_mut(port).frames.push((now_us, channels));
                 Some(Vec::new())
             }
             MSP_RC => Some(u16s(&self.channels_in_use())),
             MSP_BOXIDS => Some(BOX_IDS.to_vec()),
             MSP2_INAV_STATUS => Some(self.status()),
+            MSP_RAW_IMU => Some(self.raw_imu()),
+            MSP_ATTITUDE => Some(self.attitude()),
+            // fc_msp.c 9:624-628, 10:672-676: `gvGet(i)` as u32 each.
+            MSP2_INAV_GVAR_STATUS => {
+                Some(self.gvars.iter().flat_map(|v| v.to_le_bytes()).collect())
+            }
+            // fc_msp.c 9:2409-2424, 10:2526-2541 (the same): exactly 5 bytes, an index
+            // below MAX_GLOBAL_VARIABLES, else an error reply; then `gvSet` and an
+            // empty reply.
+            MSP2_INAV_SET_GVAR => {
+                let [index, a, b, c, d] = *payload else {
+                    return None;
+                };
+                let value = i32::from_le_bytes([a, b, c, d]);
+                let config = self.setup.gvar_config.get(usize::from(index))?;
+                self.gvars[usize::from(index)] = constrain(value, config.min, config.max);
+                self.port_log_mut(port)
+                    .gvar_writes
+                    .push((now_us, index, value));
+                Some(Vec::new())
+            }
             _ => None,
         }
+    }
+
+    /// MSP_RAW_IMU (fc_msp.c 9:516-532, 10:586-602): the accelerometer
+    /// `(int16_t)lrintf(acc.accADCf[i] * 512)` (1 g = 512; the model's board is level:
+    /// 0, 0, 512), the gyro `gyroRateDps(i)` = `lrintf(gyro.gyroADCf[i])` returned as
+    /// int16_t (sensors/gyro.c 9:604-611, 10:614-621; [`lrintf_i16`]), the
+    /// magnetometer 0 (the model has none: `USE_MAG` boards send `mag.magADC`).
+    fn raw_imu(&self) -> Vec<u8> {
+        let acc = [0i16, 0, 512];
+        let gyro = self.motion.gyro_dps.map(lrintf_i16);
+        acc.iter()
+            .chain(&gyro)
+            .chain(&[0i16; 3])
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    }
+
+    /// MSP_ATTITUDE (fc_msp.c 9:676-680, 10:718-722): roll and pitch as int16
+    /// decidegrees, then `DECIDEGREES_TO_DEGREES(attitude.values.yaw)`, which is
+    /// `yaw / 10.0f` (common/maths.h:45), a float that sbufWriteU16's uint16_t
+    /// parameter truncates: 3599 -> 359, never rounded up to 360.
+    fn attitude(&self) -> Vec<u8> {
+        let m = &self.motion;
+        let yaw_deg = (f32::from(m.yaw_ddeg) / 10.0) as u16;
+        let mut out = Vec::with_capacity(6);
+        out.extend_from_slice(&m.roll_ddeg.to_le_bytes());
+        out.extend_from_slice(&m.pitch_ddeg.to_le_bytes());
+        out.extend_from_slice(&yaw_deg.to_le_bytes());
+        out
     }
 
     /// MSP2_INAV_STATUS: cycle time .. profile, arming flags, the active modes' bits
@@ -496,48 +758,53 @@ impl InavMsp {
     /// channels' ranges, `exit` reboots.
     fn run_cli(&mut self, now_us: i64) {
         loop {
-            let Some(text) = self.cli.as_mut() else {
+            let Some(cli) = self.cli.as_mut() else {
                 return;
             };
-            let Some(end) = text.iter().position(|b| *b == b'\r' || *b == b'\n') else {
+            let Some(end) = cli.line.iter().position(|b| *b == b'\r' || *b == b'\n') else {
                 return;
             };
-            let line: Vec<u8> = text.drain(..=end).collect();
+            let line: Vec<u8> = cli.line.drain(..=end).collect();
             let line = String::from_utf8_lossy(&line[..end]).trim().to_string();
             if line.is_empty() {
                 continue;
             }
-            self.out.extend_from_slice(line.as_bytes());
-            self.out.extend_from_slice(b"\r\n");
+            let out = &mut self.ports[cli.port].out;
+            out.extend_from_slice(line.as_bytes());
+            out.extend_from_slice(b"\r\n");
             match line.as_str() {
                 "rxrange" => {
                     for (i, (min, max)) in self.setup.rxrange.iter().enumerate() {
-                        self.out
-                            .extend_from_slice(format!("rxrange {i} {min} {max}\r\n").as_bytes());
+                        out.extend_from_slice(format!("rxrange {i} {min} {max}\r\n").as_bytes());
                     }
                 }
                 "exit" => {
-                    self.out
-                        .extend_from_slice(b"\r\nLeaving CLI mode, unsaved changes lost.\r\n");
+                    out.extend_from_slice(b"\r\nLeaving CLI mode, unsaved changes lost.\r\n");
                     self.rebooting_until_us = Some(now_us + REBOOT_US);
                     self.cli = None;
-                    self.ring = Ring::default();
+                    for port in &mut self.ports {
+                        port.ring = Ring::default();
+                    }
                     return;
                 }
-                _ => self
-                    .out
-                    .extend_from_slice(b"Unknown command, try 'help'\r\n"),
+                _ => out.extend_from_slice(b"Unknown command, try 'help'\r\n"),
             }
-            self.out.extend_from_slice(b"\r\n# ");
+            out.extend_from_slice(b"\r\n# ");
         }
     }
 
-    /// The board comes back from a reboot: everything of the port and the override
-    /// starts afresh.
+    /// The board comes back from a reboot: everything of the ports, the override and
+    /// the global variables (RAM) starts afresh; the pilot and the vehicle's motion
+    /// are as they were.
     fn boot(&mut self, now_us: i64) {
         let mut fresh = Self::new(self.setup.clone(), now_us);
+        for _ in 1..self.ports.len() {
+            fresh.add_port();
+        }
         fresh.pilot = self.pilot;
+        fresh.motion = self.motion;
         fresh.log = std::mem::take(&mut self.log);
+        fresh.more_logs = std::mem::take(&mut self.more_logs);
         *self = fresh;
     }
 }
@@ -1063,6 +1330,273 @@ mod tests {
             2_200_000,
         );
         assert_eq!(replies.len(), 1);
+    }
+
+    /// Asks `command` on `port` at `t_us` and runs iNav one serial task further: its
+    /// one reply.
+    fn ask(fc: &mut InavMsp, port: usize, command: u16, payload: &[u8], t_us: i64) -> Frame {
+        fc.receive_on(port, &msp::encode_request(command, payload), t_us);
+        fc.advance(t_us + SERIAL_TASK_US);
+        let mut frames = Vec::new();
+        Decoder::default().push(&fc.take_output_on(port), &mut frames);
+        assert_eq!(frames.len(), 1, "{frames:?}");
+        assert_eq!(frames[0].command, command);
+        frames.remove(0)
+    }
+
+    fn i16s(payload: &[u8]) -> Vec<i16> {
+        payload
+            .chunks_exact(2)
+            .map(|c| i16::from_le_bytes([c[0], c[1]]))
+            .collect()
+    }
+
+    #[test]
+    fn lrintf_rounds_ties_to_even_and_wraps_into_int16() {
+        let cases = [
+            (12.5, 12),
+            (13.5, 14),
+            (-12.5, -12),
+            (-13.5, -14),
+            (12.49, 12),
+            (12.51, 13),
+            (-0.4, 0),
+            (32767.0, 32767),
+            (32768.0, -32768),
+            (40000.0, -25536),
+            (-40000.0, 25536),
+        ];
+        for (v, want) in cases {
+            assert_eq!(lrintf_i16(v), want, "{v}");
+        }
+    }
+
+    #[test]
+    fn raw_imu_is_a_level_board_and_the_gyro_as_inav_rounds_it() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        fc.set_motion(Motion {
+            gyro_dps: [12.5, -12.5, 40000.0],
+            ..Motion::default()
+        });
+        let reply = ask(&mut fc, 0, MSP_RAW_IMU, &[], 0);
+        assert_eq!(reply.direction, b'>');
+        assert_eq!(reply.payload.len(), 18);
+        assert_eq!(
+            i16s(&reply.payload),
+            vec![0, 0, 512, 12, -12, -25536, 0, 0, 0]
+        );
+        fc.set_motion(Motion {
+            gyro_dps: [13.5, -13.5, -0.4],
+            ..Motion::default()
+        });
+        let reply = ask(&mut fc, 0, MSP_RAW_IMU, &[], 20_000);
+        assert_eq!(i16s(&reply.payload)[3..6], [14, -14, 0]);
+    }
+
+    #[test]
+    fn attitude_is_decidegrees_and_the_heading_whole_degrees_truncated() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        fc.set_motion(Motion {
+            roll_ddeg: -123,
+            pitch_ddeg: 45,
+            yaw_ddeg: 3599,
+            gyro_dps: [0.0; 3],
+        });
+        let reply = ask(&mut fc, 0, MSP_ATTITUDE, &[], 0);
+        assert_eq!(reply.direction, b'>');
+        assert_eq!(reply.payload, vec![0x85, 0xFF, 45, 0, 0x67, 0x01]);
+        assert_eq!(i16s(&reply.payload), vec![-123, 45, 359]);
+        fc.set_motion(Motion {
+            yaw_ddeg: 9,
+            ..Motion::default()
+        });
+        let reply = ask(&mut fc, 0, MSP_ATTITUDE, &[], 20_000);
+        assert_eq!(i16s(&reply.payload), vec![0, 0, 0]);
+    }
+
+    fn set_gvar(index: u8, value: i32) -> Vec<u8> {
+        let mut payload = vec![index];
+        payload.extend_from_slice(&value.to_le_bytes());
+        payload
+    }
+
+    fn gvar_status(fc: &mut InavMsp, port: usize, t_us: i64) -> Vec<i32> {
+        let reply = ask(fc, port, MSP2_INAV_GVAR_STATUS, &[], t_us);
+        assert_eq!(reply.direction, b'>');
+        assert_eq!(reply.payload.len(), 4 * MAX_GLOBAL_VARIABLES);
+        reply
+            .payload
+            .chunks_exact(4)
+            .map(|c| i32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
+    }
+
+    #[test]
+    fn a_global_variable_is_set_clamped_and_read_back() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        assert_eq!(fc.gvars(), [0; MAX_GLOBAL_VARIABLES], "zero at boot");
+        let reply = ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(5, -42), 0);
+        assert_eq!((reply.direction, reply.payload.len()), (b'>', 0));
+        // INT16_MIN..INT16_MAX by default: 40000 is held as 32767.
+        let reply = ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(7, 40000), 20_000);
+        assert_eq!(reply.direction, b'>');
+        ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(0, -40000), 40_000);
+        assert_eq!(fc.gvars(), [-32768, 0, 0, 0, 0, -42, 0, 32767]);
+        assert_eq!(
+            gvar_status(&mut fc, 0, 60_000),
+            vec![-32768, 0, 0, 0, 0, -42, 0, 32767]
+        );
+        // The value as sent, when served.
+        assert_eq!(
+            fc.log.gvar_writes,
+            vec![(10_000, 5, -42), (30_000, 7, 40000), (50_000, 0, -40000)]
+        );
+    }
+
+    #[test]
+    fn a_global_variable_out_of_range_or_of_the_wrong_size_is_refused() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        let mut t = 0;
+        let mut refused = |payload: &[u8]| {
+            let reply = ask(&mut fc, 0, MSP2_INAV_SET_GVAR, payload, t);
+            t += 20_000;
+            reply.direction == b'!' && reply.payload.is_empty()
+        };
+        assert!(refused(&set_gvar(8, 1)), "index 8");
+        assert!(refused(&set_gvar(255, 1)), "index 255");
+        assert!(refused(&set_gvar(1, 1)[..4]), "4 bytes");
+        let mut six = set_gvar(1, 1);
+        six.push(0);
+        assert!(refused(&six), "6 bytes");
+        assert!(refused(&[]), "empty");
+        assert!(!refused(&set_gvar(1, 1)), "a good one");
+        assert_eq!(fc.gvars(), [0, 1, 0, 0, 0, 0, 0, 0]);
+        assert_eq!(fc.log.gvar_writes.len(), 1);
+    }
+
+    #[test]
+    fn the_gvar_configuration_bounds_writes_and_sets_the_boot_value() {
+        let mut setup = Setup::default();
+        setup.gvar_config[2] = GvarConfig {
+            default_value: 7,
+            min: -1_000_000,
+            max: 1_000_000,
+        };
+        // A min above the max (the CLI takes it): iNav's constrain gives the min.
+        setup.gvar_config[3] = GvarConfig {
+            default_value: 0,
+            min: 10,
+            max: 5,
+        };
+        let mut fc = InavMsp::new(setup, 0);
+        assert_eq!(fc.gvars()[2], 7);
+        ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(2, 40000), 0);
+        ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(3, 7), 20_000);
+        assert_eq!(fc.gvars()[2..4], [40000, 10]);
+    }
+
+    #[test]
+    fn a_reboot_clears_the_global_variables() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        ask(&mut fc, 0, MSP2_INAV_SET_GVAR, &set_gvar(5, 3), 0);
+        assert_eq!(fc.gvars()[5], 3);
+        fc.receive(b"#", 20_000);
+        fc.advance(50_000);
+        fc.receive(b"exit\r\n", 50_000);
+        fc.advance(70_000);
+        assert_eq!(fc.gvars()[5], 3, "RAM until the reboot");
+        fc.advance(REBOOT_US + 100_000);
+        assert_eq!(fc.gvars(), [0; MAX_GLOBAL_VARIABLES]);
+        assert_eq!(fc.log.gvar_writes.len(), 1, "the log survives");
+    }
+
+    #[test]
+    fn fc_version_is_the_setups() {
+        let mut fc = InavMsp::new(
+            Setup {
+                fc_version: [10, 0, 0],
+                ..Setup::default()
+            },
+            0,
+        );
+        assert_eq!(
+            ask(&mut fc, 0, MSP_FC_VERSION, &[], 0).payload,
+            vec![10, 0, 0]
+        );
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        assert_eq!(
+            ask(&mut fc, 0, MSP_FC_VERSION, &[], 0).payload,
+            vec![9, 1, 0]
+        );
+    }
+
+    #[test]
+    fn two_ports_share_the_board_and_each_serves_one_command_per_run() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        let telemetry = fc.add_port();
+        assert_eq!(telemetry, 1);
+        fc.set_pilot(pilot(1900));
+        // The roll stream on the first port; MSP_RC on the second shows the override.
+        for t in (0..1_200_000).step_by(40_000) {
+            fc.receive(&roll(1800), t);
+            fc.advance(t + 39_000);
+        }
+        fc.take_output();
+        let rc = ask(&mut fc, telemetry, MSP_RC, &[], 1_200_000);
+        assert_eq!(i16s(&rc.payload)[0], 1800);
+        // A variable written on one port reads back on the other.
+        ask(
+            &mut fc,
+            telemetry,
+            MSP2_INAV_SET_GVAR,
+            &set_gvar(6, 99),
+            1_220_000,
+        );
+        assert_eq!(gvar_status(&mut fc, 0, 1_240_000)[6], 99);
+        assert_eq!(fc.port_log(telemetry).gvar_writes, vec![(1_230_000, 6, 99)]);
+        assert!(fc.log.gvar_writes.is_empty());
+        // Two commands on each port at once: one on each per run.
+        let mut two = msp::encode_request(MSP_ATTITUDE, &[]);
+        two.extend(msp::encode_request(MSP_RAW_IMU, &[]));
+        fc.receive_on(0, &two, 1_261_000);
+        fc.receive_on(telemetry, &two, 1_261_000);
+        fc.advance(1_270_000);
+        let served = |fc: &InavMsp, port: usize| {
+            fc.port_log(port)
+                .served
+                .iter()
+                .filter(|s| s.0 >= 1_270_000)
+                .count()
+        };
+        assert_eq!((served(&fc, 0), served(&fc, telemetry)), (1, 1));
+        fc.advance(1_280_000);
+        assert_eq!((served(&fc, 0), served(&fc, telemetry)), (2, 2));
+    }
+
+    #[test]
+    fn the_cli_on_one_port_leaves_msp_on_the_other() {
+        let mut fc = InavMsp::new(Setup::default(), 0);
+        let telemetry = fc.add_port();
+        fc.receive(b"#", 0);
+        fc.advance(30_000);
+        assert!(fc.in_cli());
+        fc.take_output();
+        let reply = ask(&mut fc, telemetry, MSP_ATTITUDE, &[], 30_000);
+        assert_eq!(reply.direction, b'>');
+        // A second `#` elsewhere finds the CLI taken.
+        fc.receive_on(telemetry, b"#", 50_000);
+        fc.advance(80_000);
+        assert!(fc.take_output_on(telemetry).is_empty());
+        // `exit` reboots the whole board: neither port answers for a while.
+        fc.receive(b"exit\r\n", 80_000);
+        fc.advance(100_000);
+        fc.receive_on(telemetry, &msp::encode_request(MSP_RC, &[]), 200_000);
+        fc.advance(300_000);
+        assert!(fc.take_output_on(telemetry).is_empty());
+        assert_eq!(
+            ask(&mut fc, telemetry, MSP_RC, &[], 2_200_000).direction,
+            b'>'
+        );
     }
 
     #[test]
