@@ -783,8 +783,11 @@ mod on_the_board {
         throttle: Vec<(i64, u16)>,
         port: PortLog,
         /// Changes to make to iNav at its next millisecond (a configurator, the pilot).
-        pending: Vec<Box<dyn FnOnce(&mut InavMsp) + Send>>,
+        pending: Vec<Change>,
     }
+
+    /// A change to iNav made from outside the port.
+    type Change = Box<dyn FnOnce(&mut InavMsp) + Send>;
 
     /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
     fn inav(clock: DaemonClock) -> (Endpoint, Arc<Mutex<Seen>>) {
