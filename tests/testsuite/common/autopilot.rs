@@ -1,6 +1,8 @@
 //! A mock iNav autopilot on a real pseudo-terminal: real MAVLink 2 bytes in both
 //! directions, telemetry at iNav's rates, and the faults a test flips on
-//! ([`Controls`]): a silent link, garbage, held output, another system's frames.
+//! ([`Controls`]): a silent link, garbage, held output, another system's frames. Or,
+//! for a board without MAVLink ([`MockAutopilot::start_msp_only`]), two MSP ports of
+//! one modelled iNav and no MAVLink at all.
 
 use std::io::Read;
 use std::os::fd::OwnedFd;
@@ -12,7 +14,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use faithd_inav::mavlink as inav_mavlink;
-use faithd_inav::msp::Setup;
+use faithd_inav::msp::{Motion, Setup};
 use mavlink::MavHeader;
 use mavlink::dialects::common::*;
 
@@ -39,6 +41,10 @@ pub struct Controls {
     /// iNav ignores faithd's frames although its set-up reads right (a fault the
     /// roll confirmation must catch).
     pub override_ignored: AtomicBool,
+    /// The vehicle's motion as iNav estimates it, in iNav's units and signs: what the
+    /// model answers MSP_ATTITUDE and MSP_RAW_IMU with (MSP ports only; the MAVLink
+    /// telemetry's ATTITUDE stays level at yaw 0.3 rad).
+    pub motion: Mutex<Motion>,
 }
 
 impl Default for Controls {
@@ -54,6 +60,11 @@ impl Default for Controls {
             radio_healthy: AtomicBool::new(true),
             send_sys_status: AtomicBool::new(true),
             override_ignored: AtomicBool::new(false),
+            // Level, heading 30 degrees, still.
+            motion: Mutex::new(Motion {
+                yaw_ddeg: 300,
+                ..Motion::default()
+            }),
         }
     }
 }
@@ -82,9 +93,13 @@ pub struct MockAutopilot {
     slave: Option<OwnedFd>,
     /// Kept here too, so a quiet mock's port stays open with what it holds.
     master: Option<Arc<OwnedFd>>,
+    /// MAVLink's pseudo-terminal (empty for a mock without MAVLink).
     pub slave_path: PathBuf,
     /// iNav's MSP port for faithd's roll stream, on a pseudo-terminal of its own.
     pub msp: MspMock,
+    /// A second MSP port of the same iNav, for faithd's telemetry when the board has
+    /// no MAVLink ([`MockAutopilot::start_msp_only`]).
+    pub telemetry: Option<MspMock>,
     /// A timed test: no heavy test runs while the mock does (dropped last).
     _cpu: super::cpu::Slot,
 }
@@ -274,6 +289,7 @@ impl MockAutopilot {
         }
         MockAutopilot {
             msp: MspMock::start_with(controls.clone(), setup),
+            telemetry: None,
             controls,
             received,
             rc_sent,
@@ -284,6 +300,46 @@ impl MockAutopilot {
             slave_path,
             _cpu: cpu,
         }
+    }
+
+    /// The mock of a flight controller without MAVLink (an iNav board that speaks MSP
+    /// only), set up as `setup` says: no MAVLink port and no MAVLink thread, and two
+    /// MSP ports of one modelled iNav ([`MspMock::start_board`]), `msp` for the roll
+    /// stream and `telemetry` for what faithd reads. They share the override, the
+    /// modes and the global variables, as two UARTs of one board do. The MAVLink
+    /// methods have nothing to act on ([`Self::hold_faithds_writes`] panics).
+    pub fn start_msp_only(controls: Arc<Controls>, setup: Setup) -> MockAutopilot {
+        let cpu = super::cpu::timed();
+        let mut ports = MspMock::start_board(controls.clone(), setup, 2);
+        let telemetry = ports.pop();
+        let msp = ports.pop().expect("the command port");
+        MockAutopilot {
+            msp,
+            telemetry,
+            controls,
+            received: Arc::new(Mutex::new(Vec::new())),
+            rc_sent: Arc::new(Mutex::new(Vec::new())),
+            stop: Arc::new(AtomicBool::new(false)),
+            threads: Vec::new(),
+            slave: None,
+            master: None,
+            slave_path: PathBuf::new(),
+            _cpu: cpu,
+        }
+    }
+
+    /// faithd's `[telemetry]` and `[command.sink]` sections for a mock started with
+    /// [`Self::start_msp_only`].
+    pub fn msp_only_toml(&self) -> String {
+        let telemetry = self
+            .telemetry
+            .as_ref()
+            .expect("a mock started with start_msp_only");
+        format!(
+            "[telemetry]\nkind = \"msp\"\nendpoint = \"serial:{}\"\n\n{}",
+            telemetry.slave_path.display(),
+            self.msp.command_toml()
+        )
     }
 
     /// Stops all telemetry but keeps the port open: what was written and not read
