@@ -22,6 +22,7 @@ mod inav_flight;
 mod inav_sitl;
 mod libcaer_real;
 mod manual;
+mod msp_only_link;
 mod pymavlink_peer;
 mod real_events;
 mod recording_faults;

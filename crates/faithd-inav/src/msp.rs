@@ -150,6 +150,11 @@ pub struct Setup {
     /// the 10.x branch (fc/fc_msp.c), but MSP_BOXIDS ([`BOX_IDS`]) is a build's own.
     /// The 10.x branch's SITL build itself still says 9.1.0 (its CMakeLists.txt:56).
     pub fc_version: [u8; 3],
+    /// The build has MAVLink. iNav compiles MAVLink out on boards with 512 KB of flash
+    /// or less (F411, F722), its `mavlink_*` settings with it: MSP2_COMMON_SETTING
+    /// then refuses their names as it refuses any unknown one (fc/fc_msp.c,
+    /// `mspSettingCommand`: `mspReadSetting` finds none, the reply is an error).
+    pub has_mavlink: bool,
     /// `gvar <i> <default> <min> <max>` (fc/cli.c, `cliGvar`): each global variable's
     /// value at boot and the range its writes are clamped to.
     pub gvar_config: [GvarConfig; MAX_GLOBAL_VARIABLES],
@@ -196,6 +201,7 @@ impl Default for Setup {
             roll_rate: 20,
             max_angle_inclination_rll_ddeg: 450,
             fc_version: [9, 1, 0],
+            has_mavlink: true,
             gvar_config: [GvarConfig::default(); MAX_GLOBAL_VARIABLES],
         }
     }
@@ -218,6 +224,9 @@ impl Setup {
 
     fn setting(&self, name: &[u8]) -> Option<Vec<u8>> {
         let byte = |v: u8| Some(vec![v]);
+        if name.starts_with(b"mavlink_") && !self.has_mavlink {
+            return None;
+        }
         match name {
             b"receiver_type" => byte(self.receiver_type),
             b"serialrx_provider" => byte(4), // IBUS
