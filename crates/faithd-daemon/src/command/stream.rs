@@ -776,6 +776,9 @@ mod on_the_board {
     use crate::transport::{Address, InProcessPort};
     use faithd_inav::msp::{InavMsp, Pilot, PortLog, Setup};
 
+    /// A change to make to iNav at its next millisecond.
+    type Change = Box<dyn FnOnce(&mut InavMsp) + Send>;
+
     /// What iNav used on roll, by daemon time, and the port's log.
     #[derive(Default)]
     struct Seen {
@@ -783,7 +786,7 @@ mod on_the_board {
         throttle: Vec<(i64, u16)>,
         port: PortLog,
         /// Changes to make to iNav at its next millisecond (a configurator, the pilot).
-        pending: Vec<Box<dyn FnOnce(&mut InavMsp) + Send>>,
+        pending: Vec<Change>,
     }
 
     /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
