@@ -16,6 +16,7 @@ use nalgebra::Vector3;
 use crate::common::sitl::{self, CH_ROLL, CH_THROTTLE, Monitor, Radio, Sitl};
 use crate::require_sitl;
 use faithd::inav_sitl::SitlError;
+use faithd::inav_sitl::flight::Link;
 use faithd::realflight::{Server, World};
 use faithd_inav::msp::{Setup, rc_command};
 use faithd_sim::world::quad::{Quad, QuadConfig};
@@ -240,14 +241,28 @@ fn inavs_angle_mode_banks_the_quad_on_a_roll_stick() {
 /// is held to in CI (`faithd::inav_sitl::measured`).
 #[test]
 fn faithd_avoids_the_pole_through_inavs_own_controller() {
+    require_sitl!();
+    avoids_the_pole(Link::Mavlink);
+}
+
+/// The same five flights with faithd reading iNav over a second MSP port and no
+/// MAVLink at all (hil/inav/faithd-msp.cli, `faithd sim --autopilot inav-sitl --link
+/// msp`), as on the iNav 10 boards without MAVLink: the same outcomes, within the
+/// same bounds.
+#[test]
+fn msp_only_faithd_avoids_the_pole_through_inavs_own_controller() {
+    require_sitl!();
+    avoids_the_pole(Link::Msp);
+}
+
+fn avoids_the_pole(link: Link) {
     use faithd::inav_sitl::experiment::{RollFigures, fly_all, plan};
     use faithd::inav_sitl::measured;
-    require_sitl!();
     let _cpu = crate::common::cpu::timed();
     let exe = sitl::executable().unwrap();
-    let flights = fly_all(&plan(5, 1), &exe, |i, c| {
+    let flights = fly_all(&plan(5, 1), &exe, link, |i, c| {
         println!(
-            "flight {}: {} {:+.2} m; iNav {:?}; model {:?}",
+            "flight {} ({link:?}): {} {:+.2} m; iNav {:?}; model {:?}",
             i + 1,
             if c.inav.collision_course {
                 "collision"
@@ -278,8 +293,33 @@ fn faithd_avoids_the_pole_through_inavs_own_controller() {
         }
     }
     let timings = measured::RollTimings::of(&rolls);
-    println!("iNav: {timings:?}");
+    println!("iNav ({link:?}): {timings:?}");
     if let Err(why) = timings.check() {
         panic!("iNav no longer does what it did in the experiment: {why}");
+    }
+}
+
+/// iNav 10's bank-angle command (MSP2_INAV_FLIGHT_AXIS_ANGLE_OVERRIDE) beside
+/// faithd's stick route on the same vehicle, measured on iNav itself
+/// (`faithd::inav_sitl::angle_override`; docs/inav.md, "iNav 10's bank-angle
+/// command, measured"). A measurement, not a check of faithd: run it by hand on a
+/// SITL built from maintenance-10.x (about 2 minutes):
+/// `INAV_SITL=/path/to/10.x/inav_9.1.0_SITL cargo test --release --test testsuite
+/// inav_flight::inav10_bank_angle_command -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement for docs/inav.md on iNav 10's SITL: run by hand with --ignored"]
+fn inav10_bank_angle_command_beside_the_stick_route() {
+    use faithd::inav_sitl::angle_override::{self, Trial};
+    require_sitl!();
+    let _cpu = crate::common::cpu::timed();
+    let exe = sitl::executable().unwrap();
+    let report =
+        angle_override::run(&exe, 3, |t| println!("{t:?}")).unwrap_or_else(|e| panic!("{e}"));
+    println!("{}", report.table());
+    println!("{}", serde_json::to_string(&report).unwrap());
+    for t in &report.trials {
+        assert_eq!(t.refused, 0, "iNav refused a command: {t:?}");
+        assert_eq!(t.angle_mode, t.trial != Trial::Acro, "{t:?}");
+        assert!(t.to_5_deg_ms.is_some(), "never banked 5 degrees: {t:?}");
     }
 }

@@ -175,6 +175,15 @@ fn inav_in_the_loop_without_its_sitl_is_refused_with_where_to_get_it() {
         err.contains("/nonexistent/inav_SITL: no such file"),
         "{err}"
     );
+    // The link is how faithd reads iNav's SITL: the model has none.
+    let out = run(&["sim", "--link", "msp", "--runs", "1"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--link") && err.contains("--autopilot inav-sitl"),
+        "{err}"
+    );
+    assert!(!err.contains("flight 1"), "{err}");
 }
 
 /// The README's first command, as a new user runs it: the summary on standard output,

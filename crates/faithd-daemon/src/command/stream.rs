@@ -776,6 +776,9 @@ mod on_the_board {
     use crate::transport::{Address, InProcessPort};
     use faithd_inav::msp::{InavMsp, Pilot, PortLog, Setup};
 
+    /// A change to make to iNav at its next millisecond.
+    type Change = Box<dyn FnOnce(&mut InavMsp) + Send>;
+
     /// What iNav used on roll, by daemon time, and the port's log.
     #[derive(Default)]
     struct Seen {

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::flight::{self, SitlOutcome};
+use super::flight::{self, Link, SitlOutcome};
 use super::process::SitlError;
 use crate::closed_loop::experiment::percentile;
 use crate::closed_loop::{self, CameraKind, FlightOutcome, FlightSpec, FlyOptions};
@@ -127,16 +127,17 @@ pub struct Compared {
     pub path: Vec<super::flight::SitlPathPoint>,
 }
 
-/// Flies every spec on iNav (in real time, one after the other) and on the model;
-/// `done` hears each as it lands.
+/// Flies every spec on iNav (in real time, one after the other, faithd reading it
+/// over `link`) and on the model; `done` hears each as it lands.
 pub fn fly_all(
     specs: &[FlightSpec],
     exe: &Path,
+    link: Link,
     done: impl Fn(usize, &Compared),
 ) -> Result<Vec<Compared>, SitlError> {
     let mut all = Vec::with_capacity(specs.len());
     for (i, spec) in specs.iter().enumerate() {
-        let inav = flight::fly(spec, exe)
+        let inav = flight::fly(spec, exe, link)
             .map_err(|e| SitlError::Other(format!("flight {} on iNav: {e}", i + 1)))?;
         let model = closed_loop::fly(spec, &FlyOptions::default())
             .map_err(|e| SitlError::Other(format!("flight {} on the model: {e}", i + 1)))?;
@@ -226,6 +227,8 @@ impl Figures {
 #[derive(Clone, Debug, Serialize)]
 pub struct Report {
     pub seed: u64,
+    /// How faithd read iNav in every flight.
+    pub link: Link,
     pub inav: Figures,
     pub model: Figures,
     /// Flights where iNav and the model came out the same (rolled or not, hit or not).
@@ -236,11 +239,12 @@ pub struct Report {
     pub sitl_restarts: u32,
 }
 
-pub fn report(flights: &[Compared], seed: u64) -> Report {
+pub fn report(flights: &[Compared], seed: u64, link: Link) -> Report {
     let inav: Vec<_> = flights.iter().map(|c| c.inav).collect();
     let model: Vec<_> = flights.iter().map(|c| c.model).collect();
     Report {
         seed,
+        link,
         inav: Figures::of(&inav),
         model: Figures::of(&model),
         same_outcome: flights
@@ -308,7 +312,10 @@ impl Report {
                 spread(&b.bank_90_ms, "ms"),
             ),
         ];
-        let mut out = String::from("| | iNav 9.1 SITL | faithd's model |\n| --- | --- | --- |\n");
+        let mut out = format!(
+            "| | iNav SITL, {} | faithd's model |\n| --- | --- | --- |\n",
+            self.link.describe()
+        );
         for (what, x, y) in rows {
             out.push_str(&format!("| {what} | {x} | {y} |\n"));
         }

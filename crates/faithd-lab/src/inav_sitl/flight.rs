@@ -2,8 +2,9 @@
 //! loop: iNav 9.1's SITL flies faithd-lab's quad-X ([`crate::realflight`]) through
 //! its own mixer, PIDs and ANGLE mode; a scripted pilot on IBUS takes off, flies at
 //! the pole with the pitch stick and puts the switch in AUTO; the real daemon
-//! (`daemon::serve`) reads iNav's MAVLink on UART3 and streams its roll to iNav's MSP
-//! on UART4, as on the vehicle; the line camera renders the true state in real time.
+//! (`daemon::serve`) reads iNav on UART3 (its MAVLink, or with [`Link::Msp`] a second
+//! MSP port) and streams its roll to iNav's MSP on UART4, as on the vehicle; the line
+//! camera renders the true state in real time.
 //!
 //! Everything runs on the wall clock: iNav keeps its own, the physics server holds
 //! each answer until the wall clock reaches the physics (so iNav's 1 kHz loop is
@@ -24,7 +25,9 @@ use serde::Serialize;
 use super::course::Course;
 use super::monitor::{self, MODE_ANGLE, Monitor};
 use super::pilot::{Phase, Pilot, Sticks};
-use super::process::{self, Sitl, SitlError, UART_MAVLINK, UART_MSP_FAITHD};
+use super::process::{
+    self, Sitl, SitlError, UART_CLI, UART_MAVLINK, UART_MONITOR, UART_MSP_FAITHD,
+};
 use super::radio::{AUTO_US, CH_PITCH, CH_ROLL, CH_SWITCH, CH_THROTTLE, MANUAL_US, Radio};
 use crate::closed_loop::camera::{arena, optics};
 use crate::closed_loop::physics::clearance_m;
@@ -35,6 +38,8 @@ use faithd_daemon::clock::DaemonClock;
 use faithd_daemon::command::{MspSink, Sink};
 use faithd_daemon::config::FaithdConfig;
 use faithd_daemon::daemon::{self, Ended, Execution, Hooks, Observation};
+use faithd_daemon::link::TelemetryConfig;
+use faithd_daemon::link::over_msp::MspTelemetryConfig;
 use faithd_daemon::transport::Address;
 use faithd_sim::world::line_camera::LineCamera;
 use faithd_sim::world::quad_x::{QuadX, QuadXConfig};
@@ -44,7 +49,54 @@ use faithd_sim::world::quad_x::{QuadX, QuadXConfig};
 /// pastes on the real board), then the simulated airframe (quad-X mixer, fake GPS).
 const PILOT_CLI: &str = include_str!("../../../../tests/inav/pilot.cli");
 const FAITHD_CLI: &str = include_str!("../../../../hil/inav/faithd.cli");
+const FAITHD_MSP_CLI: &str = include_str!("../../../../hil/inav/faithd-msp.cli");
 const QUAD_CLI: &str = include_str!("../../../../tests/inav/quad_rf.cli");
+
+/// How faithd reads iNav in a flight: the vehicle's two ways of wiring it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Link {
+    /// iNav's MAVLink telemetry on UART3 (hil/inav/faithd.cli): the default.
+    #[default]
+    Mavlink,
+    /// A second MSP port on UART3 (hil/inav/faithd-msp.cli), no MAVLink at all, as
+    /// on the iNav 10 boards without it (`[telemetry] kind = "msp"`).
+    Msp,
+}
+
+impl Link {
+    /// faithd's committed script for this link, and the lines that go with it on
+    /// SITL: iNav allows three MSP ports (msp/msp_serial.h MAX_MSP_PORT_COUNT; a save
+    /// with more resets every port, io/serial.c isSerialConfigValid), and SITL's
+    /// UART1 and UART2 are both MSP, so with faithd's two UART2 gives its up.
+    fn cli_lines(self) -> Vec<String> {
+        match self {
+            Link::Mavlink => process::script_lines(FAITHD_CLI),
+            Link::Msp => {
+                let mut lines = process::script_lines(FAITHD_MSP_CLI);
+                lines.push("serial 1 0 115200 115200 115200 115200".into());
+                lines
+            }
+        }
+    }
+
+    /// Where the harness reads what iNav uses: UART2, or UART1 when UART2 is no
+    /// longer MSP (the board's USB port is the third there).
+    pub fn monitor_uart(self) -> u16 {
+        match self {
+            Link::Mavlink => UART_MONITOR,
+            Link::Msp => UART_CLI,
+        }
+    }
+
+    /// In a line of text.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Link::Mavlink => "MAVLink telemetry",
+            Link::Msp => "MSP-only link",
+        }
+    }
+}
 
 /// RealFlight's address for the next flight's SITL (its port is fixed at 18083 in
 /// iNav 9.1's realFlight.c, `--simport` notwithstanding), a fresh loopback address
@@ -120,10 +172,10 @@ pub struct SitlPathPoint {
     pub roll_us: u16,
 }
 
-/// Flies `spec` with iNav's SITL at `exe` in the loop. The spec's camera must be
-/// the line camera: the flight runs in real time, and the ray-traced one cannot keep
-/// up beside SITL on two cores.
-pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
+/// Flies `spec` with iNav's SITL at `exe` in the loop, faithd reading iNav over
+/// `link`. The spec's camera must be the line camera: the flight runs in real time,
+/// and the ray-traced one cannot keep up beside SITL on two cores.
+pub fn fly(spec: &FlightSpec, exe: &Path, link: Link) -> Result<SitlOutcome, SitlError> {
     if spec.camera != CameraKind::Line {
         return Err(SitlError::Other(format!(
             "camera {:?}: a flight with iNav's SITL runs in real time on the line camera only",
@@ -133,7 +185,7 @@ pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
     let course = Course::of(spec);
     let mut restarts = 0;
     let (server, sitl) = loop {
-        match boot(spec, &course, exe) {
+        match boot(spec, &course, exe, link) {
             Ok(booted) => break booted,
             Err(SitlError::Crashed { status, log }) if restarts < MAX_RESTARTS => {
                 restarts += 1;
@@ -148,8 +200,8 @@ pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
     };
     let world = server.world.clone();
     let radio = Radio::start(&sitl)?;
-    let monitor = Monitor::start(&sitl)?;
-    let daemon = Daemon::start(spec, &sitl, world.clone())?;
+    let monitor = Monitor::start_on(&sitl, link.monitor_uart())?;
+    let daemon = Daemon::start(spec, &sitl, link, world.clone())?;
     monitor::arm(&radio, &monitor, &sitl)?;
     if !monitor.latest().is_some_and(|s| s.mode(MODE_ANGLE)) {
         return Err(SitlError::Other(
@@ -171,8 +223,13 @@ pub fn fly(spec: &FlightSpec, exe: &Path) -> Result<SitlOutcome, SitlError> {
 const MAX_RESTARTS: u32 = 3;
 
 /// The quad-X on the ground at the take-off point, its RealFlight server, and SITL
-/// flying it with the set-up saved (iNav reboots to take it).
-fn boot(spec: &FlightSpec, course: &Course, exe: &Path) -> Result<(Server, Sitl), SitlError> {
+/// flying it with the set-up for `link` saved (iNav reboots to take it).
+fn boot(
+    spec: &FlightSpec,
+    course: &Course,
+    exe: &Path,
+    link: Link,
+) -> Result<(Server, Sitl), SitlError> {
     let world = World::new(QuadX::on_ground(
         QuadXConfig::default(),
         course.takeoff_m(spec),
@@ -190,7 +247,7 @@ fn boot(spec: &FlightSpec, course: &Course, exe: &Path) -> Result<(Server, Sitl)
         ],
     )?;
     let mut lines = process::script_lines(PILOT_CLI);
-    lines.extend(process::script_lines(FAITHD_CLI));
+    lines.extend(link.cli_lines());
     lines.extend(process::script_lines(QUAD_CLI));
     sitl.cli_save(&lines)?;
     Ok((server, sitl))
@@ -434,13 +491,26 @@ struct Daemon {
 }
 
 impl Daemon {
-    fn start(spec: &FlightSpec, sitl: &Sitl, world: Arc<World>) -> Result<Self, SitlError> {
+    fn start(
+        spec: &FlightSpec,
+        sitl: &Sitl,
+        link: Link,
+        world: Arc<World>,
+    ) -> Result<Self, SitlError> {
         let mut config = FaithdConfig::default();
         let address = |uart| {
             Address::parse(&sitl.endpoint(uart))
                 .map_err(|e| SitlError::Other(format!("UART{uart}: {e}")))
         };
-        config.mavlink.endpoint = address(UART_MAVLINK)?;
+        match link {
+            Link::Mavlink => config.mavlink.endpoint = address(UART_MAVLINK)?,
+            Link::Msp => {
+                config.telemetry = TelemetryConfig::Msp(MspTelemetryConfig {
+                    endpoint: address(UART_MAVLINK)?,
+                    ..MspTelemetryConfig::default()
+                })
+            }
+        }
         config.mavlink.reconnect_min_us = 50_000;
         config.mavlink.reconnect_max_us = 200_000;
         config.command.sink = Sink::Msp(MspSink {
@@ -471,7 +541,7 @@ impl Daemon {
         let runtime = faults
             .runtime()
             .map_err(|e| SitlError::Other(format!("the daemon's runtime: {e}")))?;
-        let endpoint = config.mavlink.port();
+        let endpoint = config.autopilot_port();
         let msp_endpoint = config.command.msp_port();
         let hooks = Hooks {
             clock,

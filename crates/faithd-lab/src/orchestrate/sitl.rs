@@ -7,13 +7,16 @@ use std::time::Instant;
 
 use super::error::RunError;
 use crate::inav_sitl::experiment::{self, Compared, Report};
+use crate::inav_sitl::flight::Link;
 
 /// The experiment with iNav's SITL, as asked.
 pub struct SitlSim {
     pub runs: usize,
     pub seed: u64,
-    /// iNav 9.1's SITL executable.
+    /// iNav's SITL executable (9.1, or 10.x built from maintenance-10.x).
     pub exe: PathBuf,
+    /// How faithd reads iNav: its MAVLink, or a second MSP port.
+    pub link: Link,
 }
 
 /// The experiment once flown.
@@ -28,9 +31,10 @@ impl SitlSim {
     /// What is about to fly, in one line.
     pub fn intro(&self) -> String {
         format!(
-            "faithd sim: {} flights with iNav's SITL ({}) flying the quad-X in real time, seed {}, line camera; each also flown on the model",
+            "faithd sim: {} flights with iNav's SITL ({}) flying the quad-X in real time, faithd on its {}, seed {}, line camera; each also flown on the model",
             self.runs,
             self.exe.display(),
+            self.link.describe(),
             self.seed
         )
     }
@@ -40,10 +44,11 @@ impl SitlSim {
     pub fn fly(self, done: impl Fn(String)) -> Result<SitlRun, RunError> {
         let specs = experiment::plan(self.runs, self.seed);
         let started = Instant::now();
-        let flights =
-            experiment::fly_all(&specs, &self.exe, |i, c| done(flight_line(i, self.runs, c)))
-                .map_err(|e| RunError::Failed(e.to_string()))?;
-        let report = experiment::report(&flights, self.seed);
+        let flights = experiment::fly_all(&specs, &self.exe, self.link, |i, c| {
+            done(flight_line(i, self.runs, c))
+        })
+        .map_err(|e| RunError::Failed(e.to_string()))?;
+        let report = experiment::report(&flights, self.seed, self.link);
         Ok(SitlRun {
             sim: self,
             flights,
@@ -62,7 +67,11 @@ impl SitlRun {
     /// A heading line and the report's table, iNav beside the model.
     pub fn report(&self) -> String {
         format!(
-            "faithd sim --autopilot inav-sitl: {} flights, seed {}, {:.0} s\n\n{}",
+            "faithd sim --autopilot inav-sitl --link {}: {} flights, seed {}, {:.0} s\n\n{}",
+            match self.sim.link {
+                Link::Mavlink => "mavlink",
+                Link::Msp => "msp",
+            },
             self.sim.runs,
             self.sim.seed,
             self.wall_s,

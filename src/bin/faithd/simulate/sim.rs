@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use faithd::config::FaithdConfig;
+use faithd::inav_sitl::flight::Link;
 use faithd::orchestrate::sim::Sim;
 use faithd::orchestrate::sitl::SitlSim;
 use faithd::orchestrate::straight;
@@ -67,6 +68,20 @@ pub struct SimArgs {
     /// project with the board's serial timing (docs/simulation.md).
     #[arg(long, env = "INAV_SITL")]
     inav_sitl: Option<PathBuf>,
+    /// With --autopilot inav-sitl: how faithd reads iNav, its MAVLink telemetry
+    /// (hil/inav/faithd.cli) or a second MSP port and no MAVLink at all
+    /// (hil/inav/faithd-msp.cli, `[telemetry] kind = "msp"`).
+    #[arg(long, value_enum, default_value_t = LinkArg::Mavlink)]
+    link: LinkArg,
+}
+
+/// How faithd reads iNav in `faithd sim --autopilot inav-sitl`.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum LinkArg {
+    /// iNav's MAVLink telemetry on UART3.
+    Mavlink,
+    /// A second MSP port on UART3, as on the iNav 10 boards without MAVLink.
+    Msp,
 }
 
 /// Who flies the vehicle in `faithd sim`.
@@ -84,6 +99,11 @@ pub fn sim(args: &SimArgs) -> Result<(), Failure> {
     if args.straight && args.video.video.is_some() {
         return Err(Failure::refused(
             "--video films a closed-loop flight; --straight flies none",
+        ));
+    }
+    if args.link != LinkArg::Mavlink && args.autopilot != Autopilot::InavSitl {
+        return Err(Failure::refused(
+            "--link chooses how faithd reads iNav's SITL: it needs --autopilot inav-sitl",
         ));
     }
     if args.autopilot == Autopilot::InavSitl {
@@ -175,6 +195,10 @@ fn sim_inav_sitl(args: &SimArgs) -> Result<(), Failure> {
         runs: args.runs,
         seed: args.seed,
         exe: exe.to_path_buf(),
+        link: match args.link {
+            LinkArg::Mavlink => Link::Mavlink,
+            LinkArg::Msp => Link::Msp,
+        },
     };
     eprintln!("{}", sim.intro());
     let run = sim.fly(|line| eprintln!("{line}"))?;
