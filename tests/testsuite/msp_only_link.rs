@@ -103,7 +103,13 @@ fn a_roll_lands_over_msp_alone_within_each_ports_budget() {
             .filter(|(_, c)| *c == command)
             .count()
     };
-    assert!(asked(102) > 2 * asked(105), "the gyro asked most");
+    // The schedule asks the gyro twice as often as the channels (25 and 12.5 a
+    // second); a session cut short by a late reply can end between the two.
+    let (gyro, channels) = (asked(102), asked(105));
+    assert!(
+        gyro + 2 >= 2 * channels && gyro > channels,
+        "the gyro asked most: {gyro} MSP_RAW_IMU, {channels} MSP_RC"
+    );
 }
 
 /// The pilot's switch read over MSP: MANUAL closes the gate and iNav never uses a

@@ -789,9 +789,6 @@ mod on_the_board {
         pending: Vec<Change>,
     }
 
-    /// A change to iNav made from outside the port.
-    type Change = Box<dyn FnOnce(&mut InavMsp) + Send>;
-
     /// iNav's MSP port as a task: the pilot in AUTO, armed, in ANGLE.
     fn inav(clock: DaemonClock) -> (Endpoint, Arc<Mutex<Seen>>) {
         let (tx, mut sessions) = mpsc::unbounded_channel();
