@@ -338,6 +338,47 @@ fn a_bad_camera_is_refused_with_the_cameras_there_are() {
     }
 }
 
+/// `bench foe --attitude-link`: the report names the link derotation's rates came
+/// over and gives the rotating flights' errors apart; a wrong link is refused with
+/// the links there are.
+#[test]
+fn bench_foe_derotates_with_the_link_asked_for() {
+    let _cpu = crate::common::cpu::heavy();
+    let dir = tempfile::tempdir().unwrap();
+    let out = faithd(&[
+        "bench",
+        "foe",
+        "--attitude-link",
+        "msp",
+        "--rotation",
+        "--trajectories",
+        "3",
+        "--json",
+        "--plot-dir",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(o["attitude_link"], "msp");
+    assert_eq!(o["rotating_trajectories"].as_u64(), Some(1));
+    assert!(o["per_trajectory"][2]["rotating"].as_bool().unwrap(), "{o}");
+    assert!(
+        o["methods"][0]["rotating_mean_error_deg"]
+            .as_f64()
+            .is_some(),
+        "{o}"
+    );
+    let bad = faithd(&["bench", "foe", "--attitude-link", "crsf"]);
+    assert_eq!(bad.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("the links are imu, mavlink, msp"), "{err}");
+    assert!(bad.stdout.is_empty());
+}
+
 /// `bench foe --camera`: the same flights rendered at the camera's size.
 #[test]
 fn bench_foe_flies_the_camera_asked_for() {

@@ -245,3 +245,48 @@ fn a_small_foe_benchmark_is_deterministic_and_ranks_faith_first() {
     assert!(std::fs::metadata(dir.join("f.png")).unwrap().len() > 10_000);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The link's rates are the ones derotation gets: the same rotating flight, its
+/// rates rounded to whole degrees per second at 25 Hz, gives FAITH other errors.
+#[test]
+fn the_benchs_attitude_link_reaches_derotation() {
+    use faithd_sim::bench::foe::{BenchFoeOptions, run};
+    use faithd_sim::world::AttitudeLink;
+    let options = BenchFoeOptions {
+        trajectories: 3,
+        seed: 5,
+        duration_s: 0.3,
+        windows: 2,
+        threads: 2,
+        variants: Vec::new(),
+        rotation: true,
+        ..Default::default()
+    };
+    let over = |attitude_link| {
+        run(
+            &BenchFoeOptions {
+                attitude_link,
+                ..options.clone()
+            },
+            &|_, _| {},
+        )
+    };
+    let (imu, msp) = (over(AttitudeLink::Imu), over(AttitudeLink::Msp));
+    assert_eq!(
+        (imu.attitude_link, msp.attitude_link),
+        (AttitudeLink::Imu, AttitudeLink::Msp)
+    );
+    assert_eq!(msp.rotating_trajectories, 1);
+    let rotating = |r: &faithd_sim::bench::foe::BenchFoeReport| {
+        let t = &r.per_trajectory[2];
+        assert!(t.rotating);
+        t.mean_error_deg[0]
+    };
+    assert!(rotating(&msp).is_finite());
+    assert_ne!(rotating(&imu), rotating(&msp));
+    assert_eq!(
+        msp.methods[0].rotating_mean_error_deg,
+        Some(rotating(&msp)),
+        "one rotating flight: its error is the mean"
+    );
+}

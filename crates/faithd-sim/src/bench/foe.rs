@@ -14,7 +14,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::Serialize;
 
-use crate::world::{DvsConfig, ImuConfig, SceneKind, Trajectory, simulate};
+use crate::world::{AttitudeLink, DvsConfig, ImuConfig, SceneKind, Trajectory, simulate};
 use faithd_core::camera::{CameraIntrinsics, CameraPreset};
 use faithd_core::derotate::{DerotationConfig, Derotator};
 use faithd_core::flow::{FlowConfig, FlowVector, NormalFlow};
@@ -47,6 +47,9 @@ pub struct BenchFoeOptions {
     /// At most this many (newest) vectors of the history, as the pipeline's
     /// `max_vectors` (3000); `None` gives the methods the whole history.
     pub max_vectors: Option<usize>,
+    /// The link the body rates come over before derotation: the simulator's gyro as
+    /// it is (the default), or as iNav's MAVLink or MSP telemetry delivers it.
+    pub attitude_link: AttitudeLink,
 }
 
 impl Default for BenchFoeOptions {
@@ -68,6 +71,7 @@ impl Default for BenchFoeOptions {
             rotation: false,
             camera: CameraPreset::Davis240,
             max_vectors: None,
+            attitude_link: AttitudeLink::Imu,
         }
     }
 }
@@ -80,6 +84,12 @@ pub struct MethodResult {
     pub mean_error_deg: f64,
     /// Standard deviation of the per-trajectory mean errors, degrees.
     pub std_error_deg: f64,
+    /// Median of the per-trajectory mean errors, degrees.
+    pub median_error_deg: f64,
+    /// Mean and median of the per-trajectory mean errors over the rotating flights
+    /// alone, degrees (`None` when no flight rotates).
+    pub rotating_mean_error_deg: Option<f64>,
+    pub rotating_median_error_deg: Option<f64>,
     /// Median compute time per 1000 flow vectors, microseconds.
     pub us_per_1000_vectors: f64,
     pub us_per_1000_vectors_p10: f64,
@@ -112,6 +122,10 @@ pub struct BenchFoeReport {
     pub width_px: u16,
     pub height_px: u16,
     pub max_vectors: Option<usize>,
+    /// The link derotation's body rates came over.
+    pub attitude_link: AttitudeLink,
+    /// Flights flown with body rotation (`rotation`), evaluated or not.
+    pub rotating_trajectories: usize,
     pub methods: Vec<MethodResult>,
     pub windows: usize,
     pub per_trajectory: Vec<TrajectoryResult>,
@@ -255,7 +269,8 @@ fn run_flight(
     let mut flow = NormalFlow::new(&camera, FlowConfig::default());
     let mut vectors: Vec<FlowVector> = Vec::new();
     flow.process(&run.events, &mut vectors);
-    Derotator::new(camera, DerotationConfig::default()).derotate_all(&mut vectors, &run.attitude);
+    let attitude = options.attitude_link.deliver(&run.attitude);
+    Derotator::new(camera, DerotationConfig::default()).derotate_all(&mut vectors, &attitude);
 
     let end_us = (options.duration_s * 1e6) as i64;
     let first_us = options.history_us * 2;
@@ -343,6 +358,17 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
+/// The median of `values` (the mean of the middle two of an even count).
+fn median(values: impl Iterator<Item = f64>) -> f64 {
+    let mut v: Vec<f64> = values.collect();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
 fn percentile(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
@@ -401,6 +427,13 @@ pub fn run(
                 .collect();
             let mu = mean(per_traj.iter().copied());
             let var = mean(per_traj.iter().map(|e| (e - mu) * (e - mu)));
+            let rotating: Vec<f64> = results
+                .iter()
+                .filter(|(t, _, _)| t.rotating)
+                .map(|(t, _, _)| t.mean_error_deg[m])
+                .filter(|e| e.is_finite())
+                .collect();
+            let any_rotating = !rotating.is_empty();
             let mut times: Vec<f64> = results
                 .iter()
                 .flat_map(|(_, s, _)| s.iter().map(move |w| w.us_per_1000[m]))
@@ -414,6 +447,9 @@ pub fn run(
                 name: name.clone(),
                 mean_error_deg: mu,
                 std_error_deg: var.sqrt(),
+                median_error_deg: median(per_traj.iter().copied()),
+                rotating_mean_error_deg: any_rotating.then(|| mean(rotating.iter().copied())),
+                rotating_median_error_deg: any_rotating.then(|| median(rotating.iter().copied())),
                 us_per_1000_vectors: percentile(&times, 0.5),
                 us_per_1000_vectors_p10: percentile(&times, 0.1),
                 us_per_1000_vectors_p90: percentile(&times, 0.9),
@@ -422,6 +458,7 @@ pub fn run(
         })
         .collect();
     let windows = results.iter().map(|(_, s, _)| s.len()).sum();
+    let rotating_trajectories = flights.iter().filter(|f| f.rotating).count();
     let example = results.iter().find_map(|(_, _, e)| e.clone());
     BenchFoeReport {
         trajectories: options.trajectories,
@@ -430,6 +467,8 @@ pub fn run(
         width_px: camera.width_px,
         height_px: camera.height_px,
         max_vectors: options.max_vectors,
+        attitude_link: options.attitude_link,
+        rotating_trajectories,
         methods,
         windows,
         per_trajectory: results.into_iter().map(|(t, _, _)| t).collect(),
@@ -445,6 +484,12 @@ impl BenchFoeReport {
             self.trajectories, self.windows, self.seed, self.camera, self.width_px, self.height_px
         );
         s += &format!(
+            "body rates over {} ({}); {} rotating flights\n",
+            self.attitude_link,
+            self.attitude_link.describe(),
+            self.rotating_trajectories
+        );
+        s += &format!(
             "{:<20} {:>22} {:>30} {:>7}\n",
             "method", "course error (deg)", "us per 1000 vectors (p10-p90)", "failed"
         );
@@ -458,6 +503,20 @@ impl BenchFoeReport {
                 m.us_per_1000_vectors_p10,
                 m.us_per_1000_vectors_p90,
                 m.failed_windows
+            );
+        }
+        s += &format!(
+            "{:<20} {:>12} {:>24}\n",
+            "method", "median (deg)", "rotating: mean / median"
+        );
+        for m in &self.methods {
+            let rotating = match (m.rotating_mean_error_deg, m.rotating_median_error_deg) {
+                (Some(mean), Some(median)) => format!("{mean:.2} / {median:.2}"),
+                _ => "-".to_string(),
+            };
+            s += &format!(
+                "{:<20} {:>12.2} {:>24}\n",
+                m.name, m.median_error_deg, rotating
             );
         }
         s

@@ -7,6 +7,7 @@
 //! background noise and timestamp jitter). An IMU stream with noise and bias and the
 //! ground-truth FOE come with the events. Everything is seeded.
 
+pub mod attitude_link;
 pub mod dvs;
 pub mod line_camera;
 pub mod quad;
@@ -16,6 +17,7 @@ pub mod scenes;
 pub mod texture;
 pub mod trajectory;
 
+pub use attitude_link::AttitudeLink;
 pub use dvs::{DvsConfig, EventCamera, render_interval_us};
 pub use scene::Scene;
 pub use scenes::SceneKind;

@@ -9,6 +9,7 @@ use faithd::config::FaithdConfig;
 use faithd::orchestrate::bench_pipeline::{self, BenchCamera, Streams};
 use faithd::orchestrate::{bench_compute, bench_foe};
 use faithd_core::camera::CameraPreset;
+use faithd_sim::world::AttitudeLink;
 
 use super::world::{WorldArgs, parse_cpu_scale};
 use crate::Failure;
@@ -44,6 +45,11 @@ pub struct BenchFoeArgs {
     /// pipeline's `max_vectors` does (default: the whole 50 ms history).
     #[arg(long, value_parser = clap::value_parser!(u32).range(50..))]
     max_vectors: Option<u32>,
+    /// The link derotation's body rates come over: imu (the simulator's 100 Hz gyro
+    /// as it is), mavlink (iNav's ATTITUDE: 25 Hz, f32 degrees per second) or msp
+    /// (iNav's MSP_RAW_IMU: 25 Hz, whole degrees per second).
+    #[arg(long, default_value = "imu", value_parser = parse_attitude_link)]
+    attitude_link: AttitudeLink,
 }
 
 /// `faithd bench pipeline`.
@@ -81,6 +87,12 @@ pub fn parse_camera(text: &str) -> Result<CameraPreset, String> {
         .map_err(|e: faithd_core::camera::UnknownCamera| e.to_string())
 }
 
+/// `--attitude-link`: a link's name; a wrong one is refused with the names there are.
+fn parse_attitude_link(text: &str) -> Result<AttitudeLink, String> {
+    text.parse()
+        .map_err(|e: faithd_sim::world::attitude_link::UnknownAttitudeLink| e.to_string())
+}
+
 /// `faithd bench compute`.
 #[derive(Args)]
 pub struct BenchComputeArgs {
@@ -104,6 +116,7 @@ pub fn bench_foe(args: &BenchFoeArgs) -> Result<(), Failure> {
         rotation: args.rotation,
         camera: args.camera,
         max_vectors: args.max_vectors.map(|n| n as usize),
+        attitude_link: args.attitude_link,
         ..Default::default()
     };
     if let Some(t) = args.threads {
