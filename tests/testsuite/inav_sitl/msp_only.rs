@@ -87,38 +87,7 @@ fn each_port_carries_at_most_half_of_what_inav_serves() {
 #[test]
 fn inavs_failsafe_closes_the_gate() {
     require_sitl!();
-    let bench = bench(&[]);
-    bench.radio.set(CH_SWITCH, AUTO_US);
-    let mut daemon = bench.faithd(5_000_000, "");
-    assert!(
-        daemon.wait_for_log("safety gate open", Duration::from_secs(5)),
-        "{}",
-        daemon.log()
-    );
-    let lost = unix_us();
-    bench.radio.transmit(false);
-    let failsafe = bench
-        .monitor
-        .wait_until(Duration::from_secs(3), |s| s.mode(MODE_FAILSAFE))
-        .expect("iNav entered failsafe");
-    std::thread::sleep(Duration::from_secs(6));
-    let log = daemon.log();
-    assert!(daemon.stop().success(), "{log}");
-    eprintln!(
-        "measured (MSP-only): iNav in FAILSAFE {:.0} ms after the radio stopped",
-        (failsafe.t_us - lost) as f64 / 1000.0
-    );
-    assert!(
-        log.contains("safety gate closed: the autopilot reports the pilot's radio lost"),
-        "{log}"
-    );
-    assert!(log.contains("decision: roll"), "{log}");
-    assert!(!log.contains("manoeuvre started"), "{log}");
-    let during = bench.monitor.between(failsafe.t_us, unix_us());
-    assert!(
-        during.iter().all(|s| s.roll() != 1200 && s.roll() != 1800),
-        "a roll in use during the failsafe"
-    );
+    super::radio_lost_mid_flight(&bench(&[]));
 }
 
 /// `faithd check-fc` over MSP alone: the set-up passes without a MAVLink setting
