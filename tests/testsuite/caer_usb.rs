@@ -45,15 +45,14 @@ fn say(line: &str) {
 
 /// The real libcaer's path, or `None` (and one line saying the test is skipped).
 fn real_library() -> Option<String> {
-    match std::env::var("LIBCAER_PATH") {
-        Ok(path) if !path.is_empty() => Some(path),
-        _ => {
-            say(
-                "skipped: LIBCAER_PATH is not set (iniVation's libcaer 3.x, which the USB stand-in runs under: docs/camera.md)",
-            );
-            None
-        }
+    let path = crate::common::peers::libcaer_path();
+    if path.is_none() {
+        say(&format!(
+            "skipped: no libcaer: run `{}` or set LIBCAER_PATH (iniVation's libcaer 3.x, which the USB stand-in runs under: docs/camera.md)",
+            crate::common::peers::PREPARE
+        ));
     }
+    path
 }
 
 // ------------------------------------------------------------ the stand-in's logs

@@ -67,15 +67,6 @@ struct GroundSaw {
 /// The NAMED_VALUE_FLOAT names faithd sends (`link::ground::VALUE_NAMES`).
 const VALUE_NAMES: [&str; 5] = ["foe_x_px", "foe_y_px", "ttc_s", "events_hz", "cycle_ms"];
 
-fn pymavlink_missing() -> bool {
-    !Command::new("python3")
-        .args(["-c", "import pymavlink"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success())
-}
-
 fn free_udp_port() -> u16 {
     std::net::UdpSocket::bind("127.0.0.1:0")
         .unwrap()
@@ -109,19 +100,9 @@ fn finish<T: serde::de::DeserializeOwned>(child: Child, what: &str) -> T {
     })
 }
 
-/// Whether the pymavlink peers can run; skips (outside CI) with a message if not.
+/// Whether the pymavlink peers can run; skips (outside CI) with a line if not.
 fn peers_available(test: &str) -> bool {
-    if !pymavlink_missing() {
-        return true;
-    }
-    assert!(
-        std::env::var_os("CI").is_none(),
-        "python3 with pymavlink is needed (CI installs it: `python3 -m pip install pymavlink`)"
-    );
-    eprintln!(
-        "SKIPPED {test}: python3 with pymavlink not found (`python3 -m pip install pymavlink`); CI runs it"
-    );
-    false
+    crate::common::peers::python_module("pymavlink", test)
 }
 
 /// What one flight showed: the ground station's and the autopilot's records, the

@@ -40,17 +40,15 @@ fn skipped(why: &str) {
 
 /// The real libcaer's path, or `None` (and one line saying the test is skipped).
 fn real_library() -> Option<String> {
-    match std::env::var("LIBCAER_PATH") {
-        Ok(path) if !path.is_empty() => Some(path),
-        _ => {
-            skipped(if cfg!(all(target_os = "linux", target_arch = "x86_64")) {
-                "LIBCAER_PATH is not set (`bash tests/peers/libcaer-wheel` fetches libcaer 3.3.15: docs/camera.md)"
-            } else {
-                "LIBCAER_PATH is not set, and there is no libcaer wheel for this architecture (x86-64 only): build libcaer for it (docs/camera.md)"
-            });
-            None
-        }
+    let path = crate::common::peers::libcaer_path();
+    if path.is_none() {
+        skipped(if cfg!(all(target_os = "linux", target_arch = "x86_64")) {
+            "no libcaer: run `bash tests/peers/prepare` (it fetches libcaer 3.3.15) or set LIBCAER_PATH (docs/camera.md)"
+        } else {
+            "LIBCAER_PATH is not set, and there is no libcaer wheel for this architecture (x86-64 only): build libcaer for it (docs/camera.md)"
+        });
     }
+    path
 }
 
 #[test]

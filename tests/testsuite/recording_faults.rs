@@ -98,6 +98,11 @@ fn tlog_records(path: &Path) -> usize {
 
 #[test]
 fn a_full_card_a_pulled_camera_and_a_kill_lose_nothing_written_before() {
+    const TEST: &str = "a_full_card_a_pulled_camera_and_a_kill_lose_nothing_written_before";
+    let peers = crate::common::peers::python_module;
+    if !peers("dv_processing", TEST) || !peers("pymavlink", TEST) {
+        return;
+    }
     let mock = MockAutopilot::start(Arc::new(Controls::default()));
     let dir = TempDir::new("full-card");
     let card = dir.0.join("card");

@@ -1,8 +1,8 @@
 //! Test support, by concern: a mock iNav autopilot speaking MAVLink 2 on a real
 //! pseudo-terminal ([`autopilot`]), iNav's MSP port answered by faithd's model of
 //! iNav ([`msp`]), the real `faithd run` binary as a child process ([`daemon`]), and
-//! iNav's own firmware (SITL) in [`sitl`], and which tests may share the cores in
-//! [`cpu`].
+//! iNav's own firmware (SITL) in [`sitl`], the other test peers in [`peers`], and
+//! which tests may share the cores in [`cpu`].
 
 #![allow(dead_code)]
 
@@ -10,6 +10,7 @@ pub mod autopilot;
 pub mod cpu;
 pub mod daemon;
 pub mod msp;
+pub mod peers;
 pub mod recording;
 pub mod sitl;
 pub mod wiretap;

@@ -690,6 +690,12 @@ fn cli_fixes(out: &str) -> Vec<String> {
 #[test]
 fn the_bench_script_measures_rates_switch_and_a_roll_on_inav() {
     require_sitl!();
+    if !common::peers::python_module(
+        "pymavlink",
+        "the_bench_script_measures_rates_switch_and_a_roll_on_inav",
+    ) {
+        return;
+    }
     let bench = Bench::new(&[]);
     let dir = common::TempDir::new("hil");
     let report = dir.0.join("report.json");
