@@ -1,8 +1,9 @@
 //! Any text as a window log's lines: the header and the windows parse or are refused,
-//! and a header that parses goes through the daemon's own configuration checks, never
-//! a panic.
+//! a header that parses goes through the daemon's own configuration checks, and a
+//! window's attitude samples through the replay's check of them, never a panic.
 #![no_main]
 
+use faithd_core::attitude::AttitudeUsed;
 use faithd_formats::window_log::{RecordedWindow, WindowLogHeader};
 use libfuzzer_sys::fuzz_target;
 
@@ -17,6 +18,8 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     for line in lines.take(1000) {
-        let _ = serde_json::from_str::<RecordedWindow>(line);
+        if let Ok(window) = serde_json::from_str::<RecordedWindow>(line) {
+            let _ = window.attitude.as_ref().map(AttitudeUsed::impossible);
+        }
     }
 });

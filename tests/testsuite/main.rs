@@ -27,6 +27,8 @@ mod pymavlink_peer;
 mod real_events;
 mod recording_faults;
 mod replay;
+mod replay_late;
+mod replay_trust;
 #[cfg(feature = "sim")]
 mod sim_cli;
 mod soak;

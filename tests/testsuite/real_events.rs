@@ -255,7 +255,8 @@ fn replay_windows(path: &Path, camera: CameraIntrinsics) -> (Vec<Window>, String
         &mut lines,
         &mut watch,
     )
-    .unwrap();
+    .unwrap()
+    .windows;
     assert_eq!(n, windows.len());
     (windows, String::from_utf8(lines).unwrap())
 }

@@ -19,7 +19,7 @@ fn events() -> Vec<faithd_core::event::Event> {
     looming_edge_events(&CameraIntrinsics::dvs240(), &scene, 5)
 }
 
-fn replay(args: &[&str]) -> (i32, String, String) {
+pub(crate) fn replay(args: &[&str]) -> (i32, String, String) {
     let out = crate::common::faithd()
         .arg("replay")
         .args(args)
@@ -39,7 +39,7 @@ fn decisions(stdout: &str) -> Vec<serde_json::Value> {
         .collect()
 }
 
-fn write_inputs(dir: &Path) {
+pub(crate) fn write_inputs(dir: &Path) {
     let ev = events();
     let file = std::fs::File::create(dir.join("flight.aedat4")).unwrap();
     let mut w = Aedat4Writer::new(file, Aedat4Config::default()).unwrap();

@@ -84,9 +84,53 @@ pub fn mean_body_rates(
 
 /// Recent attitude samples on the daemon clock: the live daemon shares one with its pipeline
 /// thread, and the replay of its recordings fills one the same way.
+///
+/// It numbers every sample it is given, from 0 at the daemon's start, so that a window
+/// can say which samples it was handed ([`AttitudeUsed`]): the link pushes a sample a
+/// moment after it records its frame, and on a loaded board a window can run inside
+/// that moment. The replay then feeds each window the samples it names, not the ones
+/// whose frames were recorded before it.
 #[derive(Debug, Default)]
 pub struct AttitudeLog {
     samples: VecDeque<AttitudeSample>,
+    /// Samples ever pushed: the number the next one gets.
+    pushed: u64,
+    /// The number of the first sample since the last [`Self::clear`] (a new link session,
+    /// whose clock offset is estimated afresh).
+    session: u64,
+}
+
+/// Which samples of an [`AttitudeLog`] a window was handed: numbers `from..to` in
+/// the order they were pushed, of the link session that began at sample `session`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttitudeUsed {
+    pub from: u64,
+    pub to: u64,
+    pub session: u64,
+    /// The time of the newest sample handed (`None` when none was): a replay checks
+    /// that its sample `to - 1` is the same one.
+    pub last_t_us: Option<i64>,
+}
+
+impl AttitudeUsed {
+    /// Why these numbers cannot come from an [`AttitudeLog`] (`None`: they can).
+    pub fn impossible(&self) -> Option<String> {
+        let u = self;
+        if u.from > u.to || u.session > u.from {
+            return Some(format!(
+                "attitude samples {}..{} of a session from {}: not a range an attitude log hands out",
+                u.from, u.to, u.session
+            ));
+        }
+        if (u.from == u.to) != u.last_t_us.is_none() {
+            return Some(format!(
+                "attitude samples {}..{} with last_t_us {:?}: a time goes with samples, and only then",
+                u.from, u.to, u.last_t_us
+            ));
+        }
+        None
+    }
 }
 
 impl AttitudeLog {
@@ -104,17 +148,25 @@ impl AttitudeLog {
             self.samples.clear();
         }
         self.samples.push_back(sample);
+        self.pushed += 1;
         let oldest = sample.t_us - Self::SPAN_US;
         while self.samples.front().is_some_and(|s| s.t_us < oldest) {
             self.samples.pop_front();
         }
     }
 
-    /// Copies the samples from `from_us` on (and the one before, for interpolation).
-    pub fn copy_since(&self, from_us: i64, out: &mut Vec<AttitudeSample>) {
+    /// Copies the samples from `from_us` on (and the one before, for interpolation);
+    /// returns which they were.
+    pub fn copy_since(&self, from_us: i64, out: &mut Vec<AttitudeSample>) -> AttitudeUsed {
         out.clear();
         let start = self.samples.partition_point(|s| s.t_us < from_us);
         out.extend(self.samples.range(start.saturating_sub(1)..).copied());
+        AttitudeUsed {
+            from: self.pushed - out.len() as u64,
+            to: self.pushed,
+            session: self.session,
+            last_t_us: out.last().map(|s| s.t_us),
+        }
     }
 
     /// The samples a pipeline window ending at `window_end_us` needs: its history and
@@ -125,12 +177,15 @@ impl AttitudeLog {
         window_end_us: i64,
         history_us: i64,
         out: &mut Vec<AttitudeSample>,
-    ) {
-        self.copy_since(window_end_us - history_us - 100_000, out);
+    ) -> AttitudeUsed {
+        self.copy_since(window_end_us - history_us - 100_000, out)
     }
 
+    /// Forgets every sample: the link was lost, and the next session's clock offset is
+    /// estimated afresh.
     pub fn clear(&mut self) {
         self.samples.clear();
+        self.session = self.pushed;
     }
 }
 
@@ -193,5 +248,36 @@ mod tests {
         log.push(at(5));
         log.copy_since(0, &mut out);
         assert_eq!(out.len(), 1, "out of order starts over");
+    }
+
+    /// The numbers a window is handed count every sample pushed, across an
+    /// out-of-order restart and a new session alike.
+    #[test]
+    fn a_window_is_told_which_samples_it_was_handed() {
+        let mut log = AttitudeLog::default();
+        let mut out = Vec::new();
+        assert_eq!(log.copy_since(0, &mut out), AttitudeUsed::default());
+        for t in [0, 20_000, 40_000] {
+            log.push(at(t));
+        }
+        let used = log.copy_since(30_000, &mut out);
+        assert_eq!((used.from, used.to, used.session), (1, 3, 0));
+        assert_eq!(used.last_t_us, Some(40_000));
+        log.clear();
+        log.push(at(7));
+        let used = log.copy_since(0, &mut out);
+        assert_eq!((used.from, used.to, used.session), (3, 4, 3));
+        assert_eq!(used.impossible(), None);
+        let crossed = AttitudeUsed {
+            from: 4,
+            to: 3,
+            ..used
+        };
+        assert!(crossed.impossible().is_some());
+        let timeless = AttitudeUsed {
+            last_t_us: None,
+            ..used
+        };
+        assert!(timeless.impossible().is_some());
     }
 }

@@ -26,6 +26,12 @@ pub struct DerotationConfig {
     pub min_speed_px_s: f64,
     /// Camera tilt above the body x axis, degrees (positive = looking up).
     pub camera_pitch_up_deg: f64,
+    /// The longest a sample is held beyond the attitude's span to cover a window
+    /// (the first sample after the window's oldest vector, the last before its end):
+    /// past it the window is not derotated. 100 ms is `gate.attitude_stale_us`, two
+    /// and a half periods of iNav's 25 Hz ATTITUDE. 0: any hold (faithd before window
+    /// log 4 held the nearest sample however far it was).
+    pub max_hold_us: i64,
 }
 
 impl Default for DerotationConfig {
@@ -34,6 +40,7 @@ impl Default for DerotationConfig {
             enabled: true,
             min_speed_px_s: 2.0,
             camera_pitch_up_deg: 0.0,
+            max_hold_us: 100_000,
         }
     }
 }
@@ -52,6 +59,11 @@ impl DerotationConfig {
             "pipeline.derotation.camera_pitch_up_deg",
             || format!("must be within +-60 degrees, got {}", d.camera_pitch_up_deg),
         )?;
+        check(
+            (0..=10_000_000).contains(&d.max_hold_us),
+            "pipeline.derotation.max_hold_us",
+            || format!("must be 0 (any hold) to 10 s, got {}", d.max_hold_us),
+        )?;
         Ok(())
     }
 }
@@ -61,9 +73,39 @@ impl DerotationConfig {
 pub struct DerotationStats {
     pub vectors_in: usize,
     pub dropped_slow: usize,
-    /// False when there was no attitude to derotate with (the flow is then unusable
-    /// for decisions, and the decision says so).
-    pub applied: bool,
+    pub state: DerotationState,
+}
+
+/// Whether a window's flow had its rotation taken out, and if not, why.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DerotationState {
+    /// Attitude that covers the window was subtracted.
+    Applied,
+    /// Switched off in the configuration (a camera on a gimbal that cancels rotation).
+    Off,
+    /// No attitude sample at all.
+    #[default]
+    NoAttitude,
+    /// Samples, but none within `max_hold_us` of one end of the window's span.
+    NotCovered,
+}
+
+impl DerotationState {
+    /// Whether the flow may be used for the FOE and decisions: derotated, or needing
+    /// no derotation by the configuration's word. Rotating flow would poison both.
+    pub fn usable(self) -> bool {
+        matches!(self, DerotationState::Applied | DerotationState::Off)
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            DerotationState::Applied => "applied",
+            DerotationState::Off => "off",
+            DerotationState::NoAttitude => "no_attitude",
+            DerotationState::NotCovered => "not_covered",
+        }
+    }
 }
 
 /// Rotational flow at a pixel for angular rates in camera axes, pixels per second.
@@ -113,25 +155,22 @@ impl Derotator {
         })
     }
 
-    /// Derotates `flow` in place, keeping the vectors that survive, in order.
+    /// Derotates `flow`, the vectors of the window that ends at `window_end_us`, in
+    /// place, keeping the vectors that survive, in order. Without attitude that covers
+    /// the window it leaves them as they are and says why.
     pub fn derotate_all(
         &self,
         flow: &mut Vec<FlowVector>,
         attitude: &[AttitudeSample],
+        window_end_us: i64,
     ) -> DerotationStats {
         let vectors_in = flow.len();
-        if !self.config.enabled {
+        let state = self.coverage(flow, attitude, window_end_us);
+        if state != DerotationState::Applied {
             return DerotationStats {
                 vectors_in,
                 dropped_slow: 0,
-                applied: true,
-            };
-        }
-        if attitude.is_empty() {
-            return DerotationStats {
-                vectors_in,
-                dropped_slow: 0,
-                applied: false,
+                state,
             };
         }
         flow.retain_mut(|f| {
@@ -147,8 +186,37 @@ impl Derotator {
         DerotationStats {
             vectors_in,
             dropped_slow: vectors_in - flow.len(),
-            applied: true,
+            state,
         }
+    }
+
+    /// Whether `attitude` covers the window: a sample no later than `max_hold_us`
+    /// after its oldest vector (or its end, without vectors), and one no earlier than
+    /// `max_hold_us` before its end. A sample held further would stand for rotation
+    /// nobody measured: a log on another clock, or a link that went quiet.
+    fn coverage(
+        &self,
+        flow: &[FlowVector],
+        attitude: &[AttitudeSample],
+        window_end_us: i64,
+    ) -> DerotationState {
+        if !self.config.enabled {
+            return DerotationState::Off;
+        }
+        let (Some(first), Some(last)) = (attitude.first(), attitude.last()) else {
+            return DerotationState::NoAttitude;
+        };
+        let hold_us = self.config.max_hold_us;
+        if hold_us == 0 {
+            return DerotationState::Applied;
+        }
+        let oldest_us = flow.iter().map(|f| f.t_us).min().unwrap_or(window_end_us);
+        if first.t_us > oldest_us.saturating_add(hold_us)
+            || last.t_us < window_end_us.saturating_sub(hold_us)
+        {
+            return DerotationState::NotCovered;
+        }
+        DerotationState::Applied
     }
 }
 
@@ -228,7 +296,8 @@ mod tests {
         };
         let fresh = FlowVector::new(100_000, 60.0, 90.0, -400.0, 0.0);
         let mut flow = vec![aged, fresh];
-        assert!(der.derotate_all(&mut flow, &attitude).applied);
+        let stats = der.derotate_all(&mut flow, &attitude, 100_000);
+        assert_eq!(stats.state, DerotationState::Applied);
         // The mean of the ramp over 60..100 ms is 0.8 rad/s; at 100 ms it is 1.
         let span = der.derotate(&aged, Vector3::new(0.0, 0.0, 0.8)).unwrap();
         let instant = der.derotate(&fresh, Vector3::new(0.0, 0.0, 1.0)).unwrap();
@@ -246,8 +315,59 @@ mod tests {
         let cam = CameraIntrinsics::dvs240();
         let der = Derotator::new(cam, DerotationConfig::default());
         let mut flow = vec![FlowVector::new(0, 1.0, 1.0, 5.0, 0.0)];
-        let stats = der.derotate_all(&mut flow, &[]);
-        assert!(!stats.applied);
+        let stats = der.derotate_all(&mut flow, &[], 0);
+        assert_eq!(stats.state, DerotationState::NoAttitude);
+        assert!(!stats.state.usable());
         assert_eq!(flow.len(), 1);
+    }
+
+    /// Attitude on another clock, or one that stopped: the window is left rotating
+    /// and says so, whatever the held sample would have subtracted.
+    #[test]
+    fn a_sample_held_beyond_max_hold_does_not_cover_the_window() {
+        let cam = CameraIntrinsics::dvs240();
+        let der = Derotator::new(cam, DerotationConfig::default());
+        let yaw = |t_us: i64| AttitudeSample {
+            t_us,
+            yaw_rate_rad_s: 0.5,
+            ..Default::default()
+        };
+        let vector = FlowVector::new(1_000_000, 60.0, 90.0, -400.0, 0.0);
+        let state = |attitude: &[AttitudeSample]| {
+            let mut flow = vec![vector];
+            let stats = der.derotate_all(&mut flow, attitude, 1_005_000);
+            (stats.state, flow[0] == vector)
+        };
+        let covering = [yaw(980_000), yaw(1_000_000)];
+        assert_eq!(state(&covering), (DerotationState::Applied, false));
+        let later = [yaw(1_000_000_000), yaw(1_000_020_000)];
+        assert_eq!(state(&later), (DerotationState::NotCovered, true));
+        let stopped = [yaw(800_000), yaw(900_000)];
+        assert_eq!(state(&stopped), (DerotationState::NotCovered, true));
+        // Within the hold at both ends.
+        let edges = [yaw(1_090_000), yaw(1_095_000)];
+        assert_eq!(state(&edges).0, DerotationState::Applied);
+
+        let any_hold = Derotator::new(
+            cam,
+            DerotationConfig {
+                max_hold_us: 0,
+                ..DerotationConfig::default()
+            },
+        );
+        let mut flow = vec![vector];
+        let stats = any_hold.derotate_all(&mut flow, &later, 1_005_000);
+        assert_eq!(stats.state, DerotationState::Applied);
+
+        let off = Derotator::new(
+            cam,
+            DerotationConfig {
+                enabled: false,
+                ..DerotationConfig::default()
+            },
+        );
+        let stats = off.derotate_all(&mut flow, &[], 1_005_000);
+        assert_eq!(stats.state, DerotationState::Off);
+        assert!(stats.state.usable());
     }
 }

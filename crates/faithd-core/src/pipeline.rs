@@ -336,8 +336,10 @@ impl Pipeline {
         let flow_stats = self.flow.take_stats();
         timings.flow_ns = lap(clock);
 
-        let derotation = self.derotator.derotate_all(&mut self.fresh, attitude);
-        if derotation.applied {
+        let derotation = self
+            .derotator
+            .derotate_all(&mut self.fresh, attitude, window_end_us);
+        if derotation.state.usable() {
             self.history.extend_from_slice(&self.fresh);
         } else {
             // Rotating flow would poison the FOE for the whole history span.
@@ -365,7 +367,7 @@ impl Pipeline {
             window_end_us,
             &self.config.decision,
             f64::from(self.config.camera.width_px),
-            derotation.applied,
+            derotation.state.usable(),
             self.foe_input.len(),
             &foe,
             &self.clusters,

@@ -12,8 +12,8 @@ use std::path::Path;
 
 use crate::link::clock_sync::ClockSync;
 use crate::link::telemetry::{self, Update};
-use faithd_core::attitude::AttitudeLog;
-use faithd_core::attitude::AttitudeSample;
+use faithd_core::attitude::{AttitudeLog, AttitudeSample, AttitudeUsed};
+use faithd_core::derotate::DerotationState;
 use faithd_core::event::Event;
 use faithd_core::pipeline::{NoClock, Pipeline, PipelineConfig, WindowReport};
 use faithd_core::safety::vehicle::VehicleState;
@@ -22,6 +22,7 @@ use faithd_formats::tlog::{TlogError, TlogReader};
 use faithd_formats::window_log::{
     RecordedWindow, WINDOW_LOG_VERSION, WindowLine, WindowLogHeader, difference,
 };
+use mavlink::dialects::common::MavMessage;
 use serde::Deserialize;
 
 #[derive(Debug, thiserror::Error)]
@@ -53,6 +54,20 @@ pub enum ReplayError {
         "{path}: event {index} has time {t_us} us, beyond +-2^53 us: not a clock faithd can window"
     )]
     EventTime { path: String, index: u64, t_us: i64 },
+    #[error(
+        "{path}: holds no attitude samples: give this recording's own attitude, or leave the option out to replay without derotation"
+    )]
+    NoAttitude { path: String },
+    #[error(
+        "{path}: its attitude spans {} to {}, the events {} to {}: they do not overlap, so no window could be derotated; --attitude-offset-us {shift_us} puts the attitude's start on the events' start",
+        seconds(attitude.0), seconds(attitude.1), seconds(events.0), seconds(events.1)
+    )]
+    AttitudeSpan {
+        path: String,
+        attitude: (i64, i64),
+        events: (i64, i64),
+        shift_us: i64,
+    },
     /// The [`Watch`] stopped the replay (the video could not be written).
     #[error("{0}")]
     Watch(String),
@@ -61,6 +76,11 @@ pub enum ReplayError {
 /// Hears every replayed window: the events it took and everything the pipeline
 /// made of them (a flight's video is drawn from it). An error stops the replay.
 pub type Watch<'a> = &'a mut dyn FnMut(&[Event], &WindowReport<'_>) -> Result<(), String>;
+
+/// Microseconds as seconds, for a person.
+fn seconds(t_us: i64) -> String {
+    format!("{:.6} s", t_us as f64 / 1e6)
+}
 
 /// A watch that hears nothing.
 pub fn unwatched(_: &[Event], _: &WindowReport<'_>) -> Result<(), String> {
@@ -84,10 +104,44 @@ fn check_times(path: &Path, batch: &[Event], seen: &mut u64) -> Result<(), Repla
     Ok(())
 }
 
+/// Where a replay's attitude comes from, and `offset_us` added to its times to put
+/// them on the events' clock.
 pub enum AttitudeInput<'a> {
     None,
     Tlog { path: &'a Path, offset_us: i64 },
-    Imu(&'a Path),
+    Imu { path: &'a Path, offset_us: i64 },
+}
+
+impl AttitudeInput<'_> {
+    /// The samples, on the events' clock; refused when there are none (an empty file
+    /// would switch derotation off without a word).
+    fn samples(&self) -> Result<Vec<AttitudeSample>, ReplayError> {
+        let (path, mut samples, offset_us) = match *self {
+            AttitudeInput::None => return Ok(Vec::new()),
+            AttitudeInput::Tlog { path, offset_us } => {
+                (path, attitude_from_tlog(path, 0)?, offset_us)
+            }
+            AttitudeInput::Imu { path, offset_us } => {
+                (path, attitude_from_imu_txt(path)?, offset_us)
+            }
+        };
+        if samples.is_empty() {
+            return Err(ReplayError::NoAttitude {
+                path: path.display().to_string(),
+            });
+        }
+        for s in &mut samples {
+            s.t_us = s.t_us.saturating_add(offset_us);
+        }
+        Ok(samples)
+    }
+
+    fn path(&self) -> Option<&Path> {
+        match *self {
+            AttitudeInput::None => None,
+            AttitudeInput::Tlog { path, .. } | AttitudeInput::Imu { path, .. } => Some(path),
+        }
+    }
 }
 
 /// ATTITUDE samples of a .tlog, on the autopilot's boot clock plus `offset_us`.
@@ -121,8 +175,11 @@ pub fn attitude_from_imu_txt(path: &Path) -> Result<Vec<AttitudeSample>, ReplayE
     imu_samples(std::io::BufReader::new(file), &p)
 }
 
+/// The fields of an imu.txt line, in order.
+const IMU_FIELDS: [&str; 7] = ["t", "ax", "ay", "az", "gx", "gy", "gz"];
+
 /// Parses imu.txt lines (`t ax ay az gx gy gz`, seconds and rad/s) from `input`;
-/// errors name `label` and the line.
+/// errors name `label`, the line, and of a bad number its column and field.
 pub fn imu_samples(
     input: impl std::io::BufRead,
     label: &str,
@@ -138,24 +195,11 @@ pub fn imu_samples(
             path: label.to_string(),
             source,
         })?;
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
+        let text = line.trim_end();
+        if text.trim_start().is_empty() || text.trim_start().starts_with('#') {
             continue;
         }
-        let v: Vec<f64> = line
-            .split_whitespace()
-            .map(str::parse::<f64>)
-            .collect::<Result<_, _>>()
-            .map_err(|e| imu_err(i + 1, format!("not a number: {e}")))?;
-        if v.len() != 7 || v.iter().any(|x| !x.is_finite()) {
-            return Err(imu_err(
-                i + 1,
-                format!(
-                    "expected 7 finite numbers (t ax ay az gx gy gz), got {}",
-                    v.len()
-                ),
-            ));
-        }
+        let v = imu_numbers(text).map_err(|what| imu_err(i + 1, what))?;
         let t_us = (v[0] * 1e6).round();
         if t_us.abs() > Event::MAX_ABS_T_US as f64 {
             return Err(imu_err(i + 1, format!("time {} s beyond +-2^53 us", v[0])));
@@ -172,8 +216,89 @@ pub fn imu_samples(
     Ok(out)
 }
 
+/// The seven finite numbers of an imu.txt line, or what is wrong: the column (from 1)
+/// and field of a bad number and what stood there, or how many fields there were.
+fn imu_numbers(text: &str) -> Result<[f64; 7], String> {
+    let mut v = [0.0; 7];
+    let mut count = 0;
+    for (column, field) in fields_with_columns(text) {
+        if count < v.len() {
+            let name = IMU_FIELDS[count];
+            let x = field
+                .parse::<f64>()
+                .map_err(|_| format!("column {column} ({name}): `{field}` is not a number"))?;
+            if !x.is_finite() {
+                return Err(format!(
+                    "column {column} ({name}): `{field}` is not a finite number"
+                ));
+            }
+            v[count] = x;
+        }
+        count += 1;
+    }
+    if count != v.len() {
+        return Err(format!(
+            "expected 7 numbers (t ax ay az gx gy gz), got {count} fields"
+        ));
+    }
+    Ok(v)
+}
+
+/// The whitespace-separated fields of `text`, each with its column (from 1, in
+/// characters).
+fn fields_with_columns(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    let mut rest = text;
+    let mut column = 1;
+    std::iter::from_fn(move || {
+        let skipped = rest.len() - rest.trim_start().len();
+        column += rest[..skipped].chars().count();
+        rest = &rest[skipped..];
+        if rest.is_empty() {
+            return None;
+        }
+        let end = rest.find(char::is_whitespace).unwrap_or(rest.len());
+        let (field, after) = rest.split_at(end);
+        let at = column;
+        column += field.chars().count();
+        rest = after;
+        Some((at, field))
+    })
+}
+
+/// What a replay of a recording did: its windows, and those that ran without
+/// derotation for want of attitude.
+#[derive(Debug, Default, PartialEq)]
+pub struct ReplaySummary {
+    pub windows: usize,
+    /// Windows whose flow was not derotated though derotation was on: their runs,
+    /// `(first window's end, last window's end, windows)`, in order.
+    pub not_derotated: Vec<(i64, i64, usize)>,
+    /// The share of the events' span the attitude's span covers, 0 to 1 (`None`:
+    /// no attitude was given).
+    pub attitude_covers: Option<f64>,
+    /// Whether the last window counted was one of the last run.
+    in_run: bool,
+}
+
+impl ReplaySummary {
+    fn count(&mut self, end_us: i64, state: DerotationState) {
+        self.windows += 1;
+        let missed = !state.usable();
+        match self.not_derotated.last_mut() {
+            Some(run) if missed && self.in_run => {
+                run.1 = end_us;
+                run.2 += 1;
+            }
+            _ if missed => self.not_derotated.push((end_us, end_us, 1)),
+            _ => {}
+        }
+        self.in_run = missed;
+    }
+}
+
 /// Replays `events_path`, writing one line per `window_us` window to `out` and
-/// telling `watch` of each.
+/// telling `watch` of each. Attitude whose span does not overlap the events' is
+/// refused before anything runs.
 pub fn replay(
     events_path: &Path,
     attitude: AttitudeInput<'_>,
@@ -182,14 +307,15 @@ pub fn replay(
     json: bool,
     out: &mut dyn Write,
     watch: Watch<'_>,
-) -> Result<usize, ReplayError> {
-    let samples = match attitude {
-        AttitudeInput::None => Vec::new(),
-        AttitudeInput::Tlog { path, offset_us } => attitude_from_tlog(path, offset_us)?,
-        AttitudeInput::Imu(path) => attitude_from_imu_txt(path)?,
-    };
-    if samples.is_empty() {
-        config.derotation.enabled = false;
+) -> Result<ReplaySummary, ReplayError> {
+    let samples = attitude.samples()?;
+    let mut summary = ReplaySummary::default();
+    match attitude.path() {
+        None => config.derotation.enabled = false,
+        Some(path) => {
+            let events = events_span(events_path)?;
+            summary.attitude_covers = Some(overlap(path, events, &samples)?);
+        }
     }
     let events_err = events_error(events_path);
     let mut reader = open_events(events_path).map_err(events_err)?;
@@ -197,7 +323,6 @@ pub fn replay(
     let mut pending: Vec<Event> = Vec::new();
     let mut batch = Vec::new();
     let mut window_end_us: Option<i64> = None;
-    let mut windows = 0;
     let mut seen = 0;
     let mut more = true;
     while more || !pending.is_empty() {
@@ -230,13 +355,43 @@ pub fn replay(
             let report = pipeline.process_window(&pending[..take], &samples, end_us, &mut NoClock);
             watch(&pending[..take], &report).map_err(ReplayError::Watch)?;
             let line = WindowLine::from_report(end_us, take, &report);
+            summary.count(end_us, report.derotation.state);
             pending.drain(..take);
-            windows += 1;
             window_end_us = Some(end_us + window_us);
             print_line(&line, json, out)?;
         }
     }
-    Ok(windows)
+    Ok(summary)
+}
+
+/// The share of the events' span that the attitude's covers; refused when they do
+/// not overlap at all, with both spans and the offset that puts one on the other.
+fn overlap(
+    path: &Path,
+    events: Option<(i64, i64)>,
+    samples: &[AttitudeSample],
+) -> Result<f64, ReplayError> {
+    let (Some((e0, e1)), Some(a0), Some(a1)) = (
+        events,
+        samples.first().map(|s| s.t_us),
+        samples.last().map(|s| s.t_us),
+    ) else {
+        return Ok(0.0);
+    };
+    let (from, to) = (e0.max(a0), e1.min(a1));
+    if from > to {
+        return Err(ReplayError::AttitudeSpan {
+            path: path.display().to_string(),
+            attitude: (a0, a1),
+            events: (e0, e1),
+            shift_us: e0.saturating_sub(a0),
+        });
+    }
+    Ok(if e1 > e0 {
+        (to - from) as f64 / (e1 - e0) as f64
+    } else {
+        1.0
+    })
 }
 
 /// Names the event file in its reader's errors.
@@ -255,6 +410,9 @@ pub struct LogReplay {
     pub differing: usize,
     /// The first difference: window time and what differed.
     pub first_difference: Option<(i64, String)>,
+    /// Windows that ran in flight before attitude whose frame had arrived reached the
+    /// pipeline (replayed with what they had): how late the flight was.
+    pub late_windows: usize,
 }
 
 /// Replays a daemon recording window by window as its window log says the daemon ran
@@ -278,15 +436,22 @@ pub fn replay_window_log(
     as_run
         .validate()
         .map_err(|inv| log.error(1, format!("header: `{}` {}", inv.key, inv.reason)))?;
-    if config.is_none() && header.faithd_window_log != WINDOW_LOG_VERSION {
+    let version = header.faithd_window_log;
+    if config.is_none() && version != WINDOW_LOG_VERSION {
         tracing::info!(
-            version = header.faithd_window_log,
-            "window log from an older faithd: replaying as it flew (version 1: without FAITH's speed fit; versions 1 and 2: every event fitted)"
+            version,
+            "window log from an older faithd: replaying as it flew (version 1: without FAITH's speed fit; versions 1 and 2: every event fitted; up to 3: any attitude sample held)"
+        );
+    }
+    if version < 4 && tlog_path.is_some() {
+        tracing::warn!(
+            version,
+            "window log from before windows named their attitude samples: each window takes the samples whose frames were recorded before it, so a window that ran before a sample reached its pipeline (a loaded board) can replay otherwise"
         );
     }
     let mut attitude = match tlog_path {
-        Some(path) => AttitudeArrivals::from_tlog(path, &header)?,
-        None => AttitudeArrivals::default(),
+        Some(path) => RecordedAttitude::from_tlog(path, &header)?,
+        None => RecordedAttitude::default(),
     };
     let config = config.unwrap_or(as_run);
     let mut events = RecordedEvents::open(events_path)?;
@@ -303,14 +468,31 @@ pub fn replay_window_log(
         pipeline.set_foe_iterations(window.foe_iterations);
         pipeline.set_max_fits(max_fits);
         pipeline.set_max_events(max_events);
-        attitude.window(window.t_us, config.history_us, &mut samples);
+        match (&window.attitude, tlog_path) {
+            (Some(used), Some(_)) => {
+                attitude
+                    .used(used, &mut samples)
+                    .map_err(|e| log.error(line_no, e))?;
+                if attitude.arrived_before(window.t_us) > used.to {
+                    result.late_windows += 1;
+                }
+            }
+            (Some(_), None) => samples.clear(),
+            (None, _) => attitude.arrived_by(window.t_us, config.history_us, &mut samples),
+        }
         let report = pipeline.process_window(taken, &samples, window.t_us, &mut NoClock);
         watch(taken, &report).map_err(ReplayError::Watch)?;
         let replayed = WindowLine::from_report(window.t_us, window.events, &report);
+        let legacy_derotated = report.derotation.state != DerotationState::NoAttitude;
         events.consume(window.events);
         result.windows += 1;
-        let replayed_json =
+        let mut replayed_json =
             serde_json::to_value(&replayed).map_err(|e| ReplayError::Output(e.into()))?;
+        if version < 4 {
+            // Those logs said `derotated` of a window that had any sample, or had
+            // derotation off.
+            replayed_json["derotated"] = legacy_derotated.into();
+        }
         if let Some(why) = difference(&recorded, &replayed_json) {
             result.differing += 1;
             result.first_difference.get_or_insert((window.t_us, why));
@@ -350,6 +532,9 @@ fn check_window(
     }
     if window.t_us.unsigned_abs() > Event::MAX_ABS_T_US as u64 {
         return Err(format!("window time {} us beyond +-2^53 us", window.t_us));
+    }
+    if let Some(why) = window.attitude.as_ref().and_then(AttitudeUsed::impossible) {
+        return Err(why);
     }
     Ok((max_fits, max_events))
 }
@@ -565,27 +750,36 @@ fn print_line(line: &WindowLine, json: bool, out: &mut dyn Write) -> Result<(), 
     }
 }
 
-/// ATTITUDE samples of a daemon recording as the daemon received them: each with its
-/// arrival on the daemon clock, so a window sees exactly the samples that had arrived
-/// when it ran, stamped by the same clock-offset estimate.
+/// The ATTITUDE frames of a daemon recording, in the order the link read them, and
+/// the samples the link made of them. A version-4 window names the samples it was
+/// handed ([`Self::used`]); an older one takes those whose frames arrived before it
+/// ([`Self::arrived_by`]).
 #[derive(Default)]
-struct AttitudeArrivals {
-    /// (arrival_us, sample), in arrival order.
-    arrivals: Vec<(i64, AttitudeSample)>,
-    next: usize,
+struct RecordedAttitude {
+    /// (arrival_us, message) of every ATTITUDE the link turned into a sample.
+    frames: Vec<(i64, MavMessage)>,
+    /// The samples made so far: `samples[k]` is the link's sample number `k`.
+    samples: Vec<AttitudeSample>,
+    sync: ClockSync,
+    /// The number of the session `sync` belongs to.
+    session: u64,
+    /// Older logs: the samples pushed so far, as the daemon's log held them.
+    arrived: usize,
     log: AttitudeLog,
 }
 
-impl AttitudeArrivals {
+impl RecordedAttitude {
     fn from_tlog(path: &Path, header: &WindowLogHeader) -> Result<Self, ReplayError> {
         let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
             path: path.display().to_string(),
             source,
         })?;
         let mut reader = TlogReader::new(std::io::BufReader::new(file));
-        let mut sync = ClockSync::new(header.clock_sync_window);
+        // Which frames the link took: a throwaway clock, since a frame's sample
+        // depends on it only for its time.
+        let mut scratch = ClockSync::new(header.clock_sync_window);
         let mut vehicle = VehicleState::default();
-        let mut arrivals = Vec::new();
+        let mut frames = Vec::new();
         while let Some(rec) = reader.next_record().map_err(|source| ReplayError::Tlog {
             path: path.display().to_string(),
             source,
@@ -601,24 +795,90 @@ impl AttitudeArrivals {
             }
             let Some(msg) = rec.message else { continue };
             let rx_us = rec.t_unix_us as i64 - header.clock_start_unix_us;
-            if let Update::Attitude(sample) = telemetry::apply(&mut vehicle, &mut sync, &msg, rx_us)
-            {
-                arrivals.push((rx_us, sample));
+            if let Update::Attitude(_) = telemetry::apply(&mut vehicle, &mut scratch, &msg, rx_us) {
+                frames.push((rx_us, msg));
             }
         }
         Ok(Self {
-            arrivals,
+            frames,
+            sync: ClockSync::new(header.clock_sync_window),
             ..Self::default()
         })
     }
 
-    /// The samples the daemon's pipeline saw for the window that ran at `t_us`.
-    fn window(&mut self, t_us: i64, history_us: i64, out: &mut Vec<AttitudeSample>) {
-        while let Some(&(arrival_us, sample)) = self.arrivals.get(self.next)
+    /// Makes samples up to number `to`, the clock offset estimated afresh from number
+    /// `session` on, as the link did in a new session.
+    fn make_until(&mut self, to: u64, session: u64) -> Result<(), String> {
+        let fresh = |sync: &ClockSync| ClockSync::new(sync.window());
+        if session > self.session {
+            if self.samples.len() as u64 > session {
+                return Err(format!(
+                    "attitude session from sample {session} begins before samples already used ({})",
+                    self.samples.len()
+                ));
+            }
+            self.make(session)?;
+            self.sync = fresh(&self.sync);
+            self.session = session;
+        }
+        self.make(to)
+    }
+
+    fn make(&mut self, to: u64) -> Result<(), String> {
+        let mut vehicle = VehicleState::default();
+        while (self.samples.len() as u64) < to {
+            let k = self.samples.len();
+            let Some((rx_us, msg)) = self.frames.get(k) else {
+                return Err(format!(
+                    "the flight used attitude samples up to number {to}, but the .tlog holds {}: not this flight's .tlog, or part of it",
+                    self.frames.len()
+                ));
+            };
+            let Update::Attitude(sample) =
+                telemetry::apply(&mut vehicle, &mut self.sync, msg, *rx_us)
+            else {
+                unreachable!("only frames that gave a sample are kept");
+            };
+            self.samples.push(sample);
+        }
+        Ok(())
+    }
+
+    /// The samples a version-4 window names, checked against the newest one's time.
+    fn used(&mut self, used: &AttitudeUsed, out: &mut Vec<AttitudeSample>) -> Result<(), String> {
+        self.make_until(used.to, used.session)?;
+        out.clear();
+        out.extend_from_slice(&self.samples[used.from as usize..used.to as usize]);
+        let last_t_us = out.last().map(|s| s.t_us);
+        if last_t_us != used.last_t_us {
+            return Err(format!(
+                "the .tlog's attitude sample {} is at {} us, the one the flight used at {} us: not this flight's .tlog, or frames were lost from it",
+                used.to.saturating_sub(1),
+                last_t_us.unwrap_or_default(),
+                used.last_t_us.unwrap_or_default()
+            ));
+        }
+        Ok(())
+    }
+
+    /// How many samples' frames had arrived by `t_us`.
+    fn arrived_before(&self, t_us: i64) -> u64 {
+        self.frames
+            .partition_point(|(arrival_us, _)| *arrival_us <= t_us) as u64
+    }
+
+    /// An older window: the samples whose frames arrived by `t_us`, as the daemon's
+    /// log would hold them had each reached it on arrival.
+    fn arrived_by(&mut self, t_us: i64, history_us: i64, out: &mut Vec<AttitudeSample>) {
+        while let Some(&(arrival_us, _)) = self.frames.get(self.arrived)
             && arrival_us <= t_us
         {
-            self.log.push(sample);
-            self.next += 1;
+            // Older logs never name a session: one clock estimate over the flight.
+            if self.make(self.arrived as u64 + 1).is_err() {
+                break;
+            }
+            self.log.push(self.samples[self.arrived]);
+            self.arrived += 1;
         }
         self.log.copy_for_window(t_us, history_us, out);
     }

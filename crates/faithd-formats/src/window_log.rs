@@ -4,16 +4,20 @@
 //! The events and the .tlog hold what came in; the window log holds what the daemon
 //! made of it and the few things a replay cannot know from the data alone: where each
 //! window ended on the daemon clock, how many events it took (events still in flight
-//! at a window's end go to the next one), the load-shedding settings in force, the
-//! pipeline configuration, and the Unix time of the daemon clock's zero (which puts
-//! every .tlog frame back on the daemon clock). With it `faithd replay --windows`
-//! recomputes every window of a flight and checks it against what was decided live.
+//! at a window's end go to the next one), which attitude samples it was handed (a
+//! sample reaches the pipeline a moment after its frame is recorded, and a window can
+//! run inside that moment), the load-shedding settings in force, the pipeline
+//! configuration, and the Unix time of the daemon clock's zero (which puts every .tlog
+//! frame back on the daemon clock). With it `faithd replay --windows` feeds every
+//! window exactly what it had in flight and checks it against what was decided live.
 //!
 //! The first line is a [`WindowLogHeader`]; every other line a [`WindowLogLine`].
 
 use serde::{Deserialize, Serialize};
 
+use faithd_core::attitude::AttitudeUsed;
 use faithd_core::decide::Decision;
+use faithd_core::derotate::{DerotationConfig, DerotationState};
 use faithd_core::flow::FlowConfig;
 use faithd_core::foe::{FaithConfig, FoeEstimate};
 use faithd_core::pipeline::{PipelineConfig, WindowReport};
@@ -23,7 +27,9 @@ use faithd_core::pipeline::{PipelineConfig, WindowReport};
 /// 2: FAITH's speed fit (`pipeline.faith.speed_*`). A version-1 header has no such
 /// keys, and reading it with today's defaults would switch on a step its flight never
 /// ran; [`WindowLogHeader::pipeline_as_run`] turns it off instead.
-pub const WINDOW_LOG_VERSION: u32 = 3;
+/// 3: the fit cap. 4: each window's `attitude` (the samples it was handed) and
+/// derotation's `max_hold_us`; older flights held any sample.
+pub const WINDOW_LOG_VERSION: u32 = 4;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -58,16 +64,25 @@ impl WindowLogHeader {
             },
             ..p
         };
+        // Versions 1 to 3 held the nearest attitude sample however far it was.
+        let any_hold = PipelineConfig {
+            derotation: DerotationConfig {
+                max_hold_us: 0,
+                ..self.pipeline.derotation
+            },
+            ..self.pipeline
+        };
         match self.faithd_window_log {
             WINDOW_LOG_VERSION => Ok(self.pipeline),
-            2 => Ok(uncapped(self.pipeline)),
+            3 => Ok(any_hold),
+            2 => Ok(uncapped(any_hold)),
             // Version 1 also predates FAITH's speed fit.
             1 => Ok(uncapped(PipelineConfig {
                 faith: FaithConfig {
                     speed_radius_px: 0.0,
                     ..self.pipeline.faith
                 },
-                ..self.pipeline
+                ..any_hold
             })),
             v => Err(format!(
                 "window log version {v} (this faithd reads 1 to {WINDOW_LOG_VERSION})"
@@ -86,6 +101,8 @@ pub struct WindowLogLine<'a> {
     pub foe_iterations: u32,
     pub max_fits: usize,
     pub max_events: usize,
+    /// The attitude samples the window was handed.
+    pub attitude: AttitudeUsed,
 }
 
 /// What a replay needs from a recorded line to rerun its window; the rest of the line
@@ -105,6 +122,10 @@ pub struct RecordedWindow {
     /// peaks at 120,000 a window).
     #[serde(default)]
     pub max_events: Option<usize>,
+    /// The attitude samples the window was handed; absent from logs before version 4
+    /// (their replay takes the samples whose frames were recorded before the window).
+    #[serde(default)]
+    pub attitude: Option<AttitudeUsed>,
 }
 
 /// One decision window, as printed.
@@ -112,11 +133,14 @@ pub struct RecordedWindow {
 pub struct WindowLine {
     pub t_us: i64,
     pub events: usize,
-    /// `{"x_px", "y_px"}`, `{"unbounded": side}` or null.
+    /// `{"x_px", "y_px"}`, `{"unbounded": side, "dx", "dy", "angle_deg"}` or null.
     pub foe: serde_json::Value,
     pub vectors: usize,
     pub clusters: usize,
+    /// Attitude that covers the window was subtracted from its flow.
     pub derotated: bool,
+    /// Why or why not: `applied`, `off`, `no_attitude` or `not_covered`.
+    pub derotation: &'static str,
     pub decision: Decision,
     /// Events left out before the flow: the window held more than its event cap
     /// (`pipeline.flow.max_events_per_window`, or less under load shedding).
@@ -132,9 +156,15 @@ fn is_zero(n: &u64) -> bool {
 pub fn foe_json(foe: &FoeEstimate) -> serde_json::Value {
     match foe {
         FoeEstimate::Point { x_px, y_px, .. } => serde_json::json!({"x_px": x_px, "y_px": y_px}),
-        FoeEstimate::Unbounded { side, .. } => {
-            serde_json::json!({"unbounded": format!("{side:?}").to_lowercase()})
-        }
+        // The direction the estimate holds, beside the side it names: a unit ray from
+        // the principal point in image axes (x right, y down), and its angle from +x
+        // toward +y, so an off-view heading can be scored and plotted.
+        FoeEstimate::Unbounded { side, dx, dy, .. } => serde_json::json!({
+            "unbounded": side.name(),
+            "dx": dx,
+            "dy": dy,
+            "angle_deg": dy.atan2(*dx).to_degrees(),
+        }),
         FoeEstimate::Insufficient { .. } => serde_json::Value::Null,
     }
 }
@@ -148,7 +178,8 @@ impl WindowLine {
             foe: foe_json(&report.foe),
             vectors: report.vectors.len(),
             clusters: report.clusters.len(),
-            derotated: report.derotation.applied,
+            derotated: report.derotation.state == DerotationState::Applied,
+            derotation: report.derotation.state.name(),
             decision: report.decision,
             skipped_events: report.flow_stats.skipped,
         }
@@ -166,15 +197,31 @@ pub const COMPARED_FIELDS: [&str; 7] = [
     "decision",
 ];
 
-/// Why a replayed window differs from the recorded one (`None`: identical).
+/// Why a replayed window differs from the recorded one (`None`: identical). Of the
+/// FOE, the keys the flight recorded are compared: a log written before the
+/// unbounded FOE's direction was added still compares on its side.
 pub fn difference(recorded: &serde_json::Value, replayed: &serde_json::Value) -> Option<String> {
     COMPARED_FIELDS.iter().find_map(|field| {
         let (a, b) = (recorded.get(field), replayed.get(field));
-        (a != b).then(|| {
+        let same = match *field {
+            "foe" => foe_holds(a, b),
+            _ => a == b,
+        };
+        (!same).then(|| {
             let show = |v: Option<&serde_json::Value>| v.map_or("absent".into(), |v| v.to_string());
             format!("{field}: recorded {}, replayed {}", show(a), show(b))
         })
     })
+}
+
+/// Whether the replayed FOE says all that the recorded one does.
+fn foe_holds(recorded: Option<&serde_json::Value>, replayed: Option<&serde_json::Value>) -> bool {
+    match (recorded, replayed) {
+        (Some(serde_json::Value::Object(a)), Some(serde_json::Value::Object(b))) => {
+            a.iter().all(|(k, v)| b.get(k) == Some(v))
+        }
+        (a, b) => a == b,
+    }
 }
 
 #[cfg(test)]
@@ -212,6 +259,42 @@ mod tests {
         let current = header(WINDOW_LOG_VERSION).pipeline_as_run().unwrap();
         assert_eq!(current, PipelineConfig::default());
         assert!(current.faith.speed_radius_px > 0.0);
+    }
+
+    #[test]
+    fn logs_before_version_4_replay_with_any_hold_as_they_flew() {
+        for version in 1..WINDOW_LOG_VERSION {
+            let config = header(version).pipeline_as_run().unwrap();
+            assert_eq!(config.derotation.max_hold_us, 0, "version {version}");
+        }
+        let current = header(WINDOW_LOG_VERSION).pipeline_as_run().unwrap();
+        assert!(current.derotation.max_hold_us > 0);
+    }
+
+    /// An unbounded FOE recorded before its direction was logged compares on its
+    /// side; one recorded with it, on the direction too.
+    #[test]
+    fn an_old_unbounded_foe_compares_on_the_keys_it_recorded() {
+        let line = |foe: serde_json::Value| {
+            let mut v = serde_json::json!({
+                "t_us": 1, "events": 2, "vectors": 3, "clusters": 0,
+                "derotated": true, "decision": {"kind": "hold"},
+            });
+            v["foe"] = foe;
+            v
+        };
+        let replayed = line(serde_json::json!(
+            {"unbounded": "below", "dx": 0.0, "dy": 1.0, "angle_deg": 90.0}
+        ));
+        let old = line(serde_json::json!({"unbounded": "below"}));
+        assert_eq!(difference(&old, &replayed), None);
+        let other_side = line(serde_json::json!({"unbounded": "left"}));
+        assert!(difference(&other_side, &replayed).is_some());
+        let other_ray = line(serde_json::json!(
+            {"unbounded": "below", "dx": 0.6, "dy": 0.8, "angle_deg": 53.13}
+        ));
+        let why = difference(&other_ray, &replayed).unwrap();
+        assert!(why.starts_with("foe:"), "{why}");
     }
 
     #[test]

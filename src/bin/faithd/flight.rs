@@ -19,7 +19,8 @@ pub struct ReplayArgs {
     /// Attitude from a MAVLink telemetry log (ATTITUDE messages).
     #[arg(long, conflicts_with = "imu")]
     mavlink: Option<PathBuf>,
-    /// Added to ATTITUDE's time_boot_ms (in us) to reach the events' clock.
+    /// Added to the attitude's times (ATTITUDE's time_boot_ms, imu.txt's t), in us,
+    /// to reach the events' clock.
     #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     attitude_offset_us: i64,
     /// Attitude from a text dataset's imu.txt.
@@ -100,7 +101,10 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
             path,
             offset_us: args.attitude_offset_us,
         },
-        (None, Some(path)) => AttitudeInput::Imu(path),
+        (None, Some(path)) => AttitudeInput::Imu {
+            path,
+            offset_us: args.attitude_offset_us,
+        },
         (None, None) => {
             eprintln!("note: no --mavlink or --imu: derotation is off for this replay");
             AttitudeInput::None
@@ -123,8 +127,36 @@ fn replay_events(args: &ReplayArgs) -> Result<(), Failure> {
     );
     let _ = std::io::Write::flush(&mut out);
     spinner.finish_and_clear();
-    result.map_err(replay_failure)?;
+    let summary = result.map_err(replay_failure)?;
+    note_coverage(&summary);
     film.finish()
+}
+
+/// Says on standard error how much of the replay the attitude covered, and which
+/// windows ran without derotation (at most a few runs, then how many more).
+fn note_coverage(summary: &faithd::replay::ReplaySummary) {
+    let Some(covers) = summary.attitude_covers else {
+        return;
+    };
+    let missed: usize = summary.not_derotated.iter().map(|run| run.2).sum();
+    if missed == 0 {
+        return;
+    }
+    eprintln!(
+        "note: the attitude covers {:.1} % of the events' span: {missed} of {} windows ran without derotation",
+        covers * 100.0,
+        summary.windows
+    );
+    const SHOWN: usize = 5;
+    for &(first_us, last_us, windows) in summary.not_derotated.iter().take(SHOWN) {
+        eprintln!("note:   {windows} windows from {first_us} us to {last_us} us");
+    }
+    if summary.not_derotated.len() > SHOWN {
+        eprintln!(
+            "note:   and {} more runs",
+            summary.not_derotated.len() - SHOWN
+        );
+    }
 }
 
 /// How far a long replay has got, on standard error when it is a terminal. Hidden
@@ -177,6 +209,12 @@ fn replay_window_log(args: &ReplayArgs, log: &Path) -> Result<(), Failure> {
     spinner.finish_and_clear();
     let r = result.map_err(replay_failure)?;
     film.finish()?;
+    if r.late_windows > 0 {
+        eprintln!(
+            "{} windows ran in flight before attitude that had arrived reached the pipeline; each replayed with the samples it had",
+            r.late_windows
+        );
+    }
     if r.differing == 0 {
         eprintln!(
             "replayed {} windows: every one as decided in flight",

@@ -45,6 +45,10 @@ pub struct Controls {
     /// model answers MSP_ATTITUDE and MSP_RAW_IMU with (MSP ports only; the MAVLink
     /// telemetry's ATTITUDE stays level at yaw 0.3 rad).
     pub motion: Mutex<Motion>,
+    /// The MAVLink ATTITUDE's body rates wobble (iNav's deg/s, a few a second, never
+    /// twice the same): a replay fed other samples than a window had derotates it
+    /// otherwise, where still rates would hide which samples it took.
+    pub wobble: AtomicBool,
 }
 
 impl Default for Controls {
@@ -65,6 +69,7 @@ impl Default for Controls {
                 yaw_ddeg: 300,
                 ..Motion::default()
             }),
+            wobble: AtomicBool::new(false),
         }
     }
 }
@@ -235,7 +240,8 @@ impl MockAutopilot {
                     let boot_ms = start.elapsed().as_millis() as u32;
                     let mut out = Vec::new();
                     if controls.send_attitude.load(Ordering::Relaxed) {
-                        out.extend(encode(seq, &attitude(boot_ms)));
+                        let wobble = controls.wobble.load(Ordering::Relaxed);
+                        out.extend(encode(seq, &attitude(boot_ms, wobble)));
                         seq = seq.wrapping_add(1);
                     }
                     let switch_us = controls.switch_us.load(Ordering::Relaxed);
@@ -455,15 +461,26 @@ impl Drop for MockAutopilot {
     }
 }
 
-fn attitude(boot_ms: u32) -> MavMessage {
+/// iNav's ATTITUDE at `boot_ms`: level, still or (`wobble`) turning back and forth at
+/// up to 8 deg/s in yaw and 4 in pitch (telemetry/mavlink.c sends the gyro in deg/s).
+fn attitude(boot_ms: u32, wobble: bool) -> MavMessage {
+    let phase = f64::from(boot_ms) * 1e-3 * std::f64::consts::TAU * 1.3;
+    let (yawspeed, pitchspeed) = if wobble {
+        (
+            (8.0 * phase.sin()) as f32,
+            (4.0 * (1.7 * phase).cos()) as f32,
+        )
+    } else {
+        (0.0, 0.0)
+    };
     MavMessage::ATTITUDE(ATTITUDE_DATA {
         time_boot_ms: boot_ms,
         roll: 0.0,
         pitch: 0.0,
         yaw: 0.3,
         rollspeed: 0.0,
-        pitchspeed: 0.0,
-        yawspeed: 0.0,
+        pitchspeed,
+        yawspeed,
     })
 }
 

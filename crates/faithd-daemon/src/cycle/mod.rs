@@ -287,7 +287,7 @@ impl Cycle {
         recording: bool,
     ) -> WindowOutcome {
         let take = faithd_core::window::events_until(&self.pending, window_end_us);
-        attitude.lock().expect("attitude log lock").copy_for_window(
+        let attitude_used = attitude.lock().expect("attitude log lock").copy_for_window(
             window_end_us,
             self.pipeline_config.history_us,
             &mut self.attitude,
@@ -316,14 +316,15 @@ impl Cycle {
                 foe_iterations: self.foe_iterations,
                 max_fits: self.max_fits,
                 max_events: self.max_events,
+                attitude: attitude_used,
             };
             serde_json::to_string(&logged).expect("window line serialises")
         });
-        let derotated = report.derotation.applied;
+        let usable = report.derotation.state.usable();
         self.pending.drain(..take);
         let problem = if window_end_us - self.last_batch_us > self.config.event_stale_us {
             Some(PipelineProblem::NoEvents)
-        } else if !derotated {
+        } else if !usable {
             Some(PipelineProblem::NoAttitude)
         } else {
             None

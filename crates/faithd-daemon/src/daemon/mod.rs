@@ -84,6 +84,10 @@ pub use crate::source::SIM_SOURCE_REFUSED;
 
 /// Runs the daemon until SIGINT, SIGTERM or SIGHUP.
 pub fn run(config: FaithdConfig, options: RunOptions) -> Result<(), DaemonError> {
+    link::late_attitude::delay_from_env().map_err(|reason| DaemonError::Config {
+        key: link::late_attitude::VARIABLE,
+        reason,
+    })?;
     let endpoint = config.autopilot_port();
     let msp_endpoint = config.command.msp_port();
     supervise::install_panic_hook();
@@ -359,9 +363,15 @@ fn start_links(
         }
         None => (GroundFeed::default(), None),
     };
+    // Checked by `run` before anything started.
+    let late_attitude = link::late_attitude::delay_from_env()
+        .ok()
+        .flatten()
+        .map(|delay| link::late_attitude::start(delay, attitude.clone()));
     let outputs = LinkOutputs {
         vehicle: vehicle_tx,
         attitude: attitude.clone(),
+        late_attitude,
         recorder: recorder.clone(),
         ground: ground_feed.clone(),
     };

@@ -42,9 +42,20 @@ impl ClockSync {
         self.to_local(remote_us)
     }
 
+    /// How many recent samples the minimum is taken over.
+    pub fn window(&self) -> usize {
+        self.window
+    }
+
     fn to_local(&self, remote_us: i64) -> i64 {
         let offset = self.offsets_us.iter().copied().min().unwrap_or(0);
         remote_us + offset
+    }
+}
+
+impl Default for ClockSync {
+    fn default() -> Self {
+        Self::new(super::CLOCK_SYNC_WINDOW)
     }
 }
 

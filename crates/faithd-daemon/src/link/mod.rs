@@ -6,6 +6,7 @@
 
 pub mod clock_sync;
 pub mod ground;
+pub mod late_attitude;
 pub mod over_msp;
 pub mod telemetry;
 
@@ -154,6 +155,9 @@ pub const CLOCK_SYNC_WINDOW: usize = 250;
 pub struct LinkOutputs {
     pub vehicle: watch::Sender<VehicleState>,
     pub attitude: Arc<Mutex<AttitudeLog>>,
+    /// Set by the test hook [`late_attitude`]: samples go here instead, and reach
+    /// `attitude` late.
+    pub late_attitude: Option<late_attitude::LateSender>,
     /// Every frame in and out goes to the flight recording.
     pub recorder: Option<crate::record::Recorder>,
     /// Every frame read goes to the ground station too, when there is one.
@@ -362,11 +366,16 @@ pub(crate) fn receive(msg: &MavMessage, rx_us: i64, sync: &mut ClockSync, output
         }
     }
     if let Update::Attitude(sample) = update {
-        outputs
-            .attitude
-            .lock()
-            .expect("attitude log lock")
-            .push(sample);
+        match &outputs.late_attitude {
+            Some(late) => {
+                let _ = late.send((tokio::time::Instant::now(), sample));
+            }
+            None => outputs
+                .attitude
+                .lock()
+                .expect("attitude log lock")
+                .push(sample),
+        }
     }
 }
 

@@ -6,6 +6,7 @@
 
 use faithd_core::cluster::ClusterStats;
 use faithd_core::decide::{Decision, RollDirection};
+use faithd_core::derotate::DerotationState;
 use faithd_core::event::Event;
 use faithd_core::foe::FoeEstimate;
 use faithd_core::pipeline::WindowReport;
@@ -92,7 +93,7 @@ impl Frame {
             foe: report.foe,
             clusters: report.clusters.to_vec(),
             decision: report.decision,
-            derotated: report.derotation.applied,
+            derotated: report.derotation.state == DerotationState::Applied,
             truth: None,
             gate: None,
             inav_roll: None,

@@ -270,7 +270,12 @@ fn run_flight(
     let mut vectors: Vec<FlowVector> = Vec::new();
     flow.process(&run.events, &mut vectors);
     let attitude = options.attitude_link.deliver(&run.attitude);
-    Derotator::new(camera, DerotationConfig::default()).derotate_all(&mut vectors, &attitude);
+    let last_vector_us = vectors.iter().map(|v| v.t_us).max().unwrap_or(0);
+    Derotator::new(camera, DerotationConfig::default()).derotate_all(
+        &mut vectors,
+        &attitude,
+        last_vector_us,
+    );
 
     let end_us = (options.duration_s * 1e6) as i64;
     let first_us = options.history_us * 2;
