@@ -147,6 +147,26 @@ fn attitude_that_covers_part_of_the_flight_is_named_window_by_window() {
         .and_then(|p| p.parse().ok())
         .unwrap_or_else(|| panic!("no share: {err}"));
     assert!((45.0..=55.0).contains(&covers), "{err}");
+
+    // Attitude from 0.3 s on: the first windows, before it less the hold, go without.
+    write_imu(&imu, 0.3, 41);
+    let (code, out, err) = replay_imu(&dir.0, &imu, &[]);
+    assert_eq!(code, 0, "{err}");
+    let windows = lines(&out);
+    let first_derotated = windows.iter().position(|w| w["derotated"] == true).unwrap();
+    assert!(
+        first_derotated > 0
+            && windows[..first_derotated]
+                .iter()
+                .all(|w| w["derotation"] == "not_covered")
+    );
+    assert!(
+        err.contains(&format!(
+            "{first_derotated} of {} windows ran without derotation",
+            windows.len()
+        )),
+        "{err}"
+    );
 }
 
 #[test]

@@ -118,9 +118,7 @@ impl AttitudeInput<'_> {
     fn samples(&self) -> Result<Vec<AttitudeSample>, ReplayError> {
         let (path, mut samples, offset_us) = match *self {
             AttitudeInput::None => return Ok(Vec::new()),
-            AttitudeInput::Tlog { path, offset_us } => {
-                (path, attitude_from_tlog(path, 0)?, offset_us)
-            }
+            AttitudeInput::Tlog { path, offset_us } => (path, attitude_from_tlog(path)?, offset_us),
             AttitudeInput::Imu { path, offset_us } => {
                 (path, attitude_from_imu_txt(path)?, offset_us)
             }
@@ -144,8 +142,8 @@ impl AttitudeInput<'_> {
     }
 }
 
-/// ATTITUDE samples of a .tlog, on the autopilot's boot clock plus `offset_us`.
-pub fn attitude_from_tlog(path: &Path, offset_us: i64) -> Result<Vec<AttitudeSample>, ReplayError> {
+/// ATTITUDE samples of a .tlog, on the autopilot's boot clock.
+pub fn attitude_from_tlog(path: &Path) -> Result<Vec<AttitudeSample>, ReplayError> {
     let file = std::fs::File::open(path).map_err(|source| ReplayError::Io {
         path: path.display().to_string(),
         source,
@@ -157,7 +155,7 @@ pub fn attitude_from_tlog(path: &Path, offset_us: i64) -> Result<Vec<AttitudeSam
         source,
     })? {
         if let Some(mavlink::dialects::common::MavMessage::ATTITUDE(a)) = rec.message {
-            let t_us = i64::from(a.time_boot_ms) * 1000 + offset_us;
+            let t_us = i64::from(a.time_boot_ms) * 1000;
             out.push(crate::link::telemetry::attitude_sample(t_us, &a));
         }
     }
@@ -298,7 +296,7 @@ impl ReplaySummary {
 
 /// Replays `events_path`, writing one line per `window_us` window to `out` and
 /// telling `watch` of each. Attitude whose span does not overlap the events' is
-/// refused before anything runs.
+/// refused before the first window runs.
 pub fn replay(
     events_path: &Path,
     attitude: AttitudeInput<'_>,
@@ -310,13 +308,11 @@ pub fn replay(
 ) -> Result<ReplaySummary, ReplayError> {
     let samples = attitude.samples()?;
     let mut summary = ReplaySummary::default();
-    match attitude.path() {
-        None => config.derotation.enabled = false,
-        Some(path) => {
-            let events = events_span(events_path)?;
-            summary.attitude_covers = Some(overlap(path, events, &samples)?);
-        }
+    if attitude.path().is_none() {
+        config.derotation.enabled = false;
     }
+    // The events' first and last times so far.
+    let mut span: Option<(i64, i64)> = None;
     let events_err = events_error(events_path);
     let mut reader = open_events(events_path).map_err(events_err)?;
     let mut pipeline = Pipeline::new(config);
@@ -330,6 +326,14 @@ pub fn replay(
             more = reader.next_batch(&mut batch).map_err(events_err)?;
             check_times(events_path, &batch, &mut seen)?;
             pending.extend_from_slice(&batch);
+            if let (Some(first), Some(last)) = (batch.first(), batch.last()) {
+                if span.is_none()
+                    && let Some(path) = attitude.path()
+                {
+                    check_overlap(events_path, path, first.t_us, &samples)?;
+                }
+                span = Some((span.map_or(first.t_us, |s| s.0), last.t_us));
+            }
         }
         let Some(first) = pending.first() else {
             continue;
@@ -361,25 +365,33 @@ pub fn replay(
             print_line(&line, json, out)?;
         }
     }
+    if attitude.path().is_some() {
+        summary.attitude_covers = span.map(|events| covered_share(events, &samples));
+    }
     Ok(summary)
 }
 
-/// The share of the events' span that the attitude's covers; refused when they do
-/// not overlap at all, with both spans and the offset that puts one on the other.
-fn overlap(
+/// Refuses attitude (`samples`, from `path`) whose span does not overlap the events',
+/// whose first is at `first_event_us`, with both spans and the offset that puts one
+/// on the other. The events' end is read ahead only when the attitude does not span
+/// their first event, so a replay with the usual attitude reads its events once.
+fn check_overlap(
+    events_path: &Path,
     path: &Path,
-    events: Option<(i64, i64)>,
+    first_event_us: i64,
     samples: &[AttitudeSample],
-) -> Result<f64, ReplayError> {
-    let (Some((e0, e1)), Some(a0), Some(a1)) = (
-        events,
-        samples.first().map(|s| s.t_us),
-        samples.last().map(|s| s.t_us),
-    ) else {
-        return Ok(0.0);
+) -> Result<(), ReplayError> {
+    let (Some(a), Some(b)) = (samples.first(), samples.last()) else {
+        return Ok(());
     };
-    let (from, to) = (e0.max(a0), e1.min(a1));
-    if from > to {
+    let (a0, a1) = (a.t_us, b.t_us);
+    if (a0..=a1).contains(&first_event_us) {
+        return Ok(());
+    }
+    let Some((e0, e1)) = events_span(events_path)? else {
+        return Ok(());
+    };
+    if e0.max(a0) > e1.min(a1) {
         return Err(ReplayError::AttitudeSpan {
             path: path.display().to_string(),
             attitude: (a0, a1),
@@ -387,11 +399,20 @@ fn overlap(
             shift_us: e0.saturating_sub(a0),
         });
     }
-    Ok(if e1 > e0 {
-        (to - from) as f64 / (e1 - e0) as f64
-    } else {
-        1.0
-    })
+    Ok(())
+}
+
+/// The share of the events' span (`e0`, `e1`) that the attitude's covers, 0 to 1.
+fn covered_share((e0, e1): (i64, i64), samples: &[AttitudeSample]) -> f64 {
+    let (Some(a), Some(b)) = (samples.first(), samples.last()) else {
+        return 0.0;
+    };
+    let (from, to) = (e0.max(a.t_us), e1.min(b.t_us));
+    match (from <= to, e1 > e0) {
+        (false, _) => 0.0,
+        (true, true) => (to - from) as f64 / (e1 - e0) as f64,
+        (true, false) => 1.0,
+    }
 }
 
 /// Names the event file in its reader's errors.
