@@ -297,6 +297,26 @@ mod tests {
         assert!(why.starts_with("foe:"), "{why}");
     }
 
+    /// An FOE beyond the view keeps the direction the estimate holds, not only its
+    /// side: 45 degrees of heading would otherwise be lost.
+    #[test]
+    fn an_unbounded_foe_is_printed_with_its_direction() {
+        let foe = FoeEstimate::Unbounded {
+            side: faithd_core::foe::Side::Below,
+            dx: 0.6,
+            dy: 0.8,
+            support: 9,
+        };
+        let json = foe_json(&foe);
+        assert_eq!(json["unbounded"], "below");
+        assert_eq!(
+            (json["dx"].as_f64(), json["dy"].as_f64()),
+            (Some(0.6), Some(0.8))
+        );
+        let angle_deg = json["angle_deg"].as_f64().unwrap();
+        assert!((angle_deg - 53.130_102).abs() < 1e-5, "{angle_deg}");
+    }
+
     #[test]
     fn an_unknown_version_is_refused_with_its_number() {
         let err = header(WINDOW_LOG_VERSION + 1)
