@@ -1,6 +1,7 @@
 //! `faithd replay` refuses or names what it cannot trust: attitude on another clock,
 //! an empty attitude file, one that covers part of the flight, a bad number; and each
-//! window says honestly whether its flow was derotated.
+//! window says honestly whether its flow was derotated. Each replays on every core
+//! it gets (under qemu, an emulated one), so none runs beside a timed test.
 
 use crate::common;
 use crate::replay::{replay, write_inputs};
@@ -37,6 +38,7 @@ fn replay_imu(dir: &Path, imu: &Path, extra: &[&str]) -> (i32, String, String) {
 
 #[test]
 fn attitude_on_another_clock_is_refused_with_both_spans_and_the_shift_that_fixes_it() {
+    let _cpu = common::cpu::heavy();
     let dir = common::TempDir::new("replay-other-clock");
     write_inputs(&dir.0);
     let imu = dir.0.join("late-imu.txt");
@@ -69,6 +71,7 @@ fn attitude_on_another_clock_is_refused_with_both_spans_and_the_shift_that_fixes
 
 #[test]
 fn an_attitude_file_without_samples_is_refused() {
+    let _cpu = common::cpu::heavy();
     let dir = common::TempDir::new("replay-empty-imu");
     write_inputs(&dir.0);
     let imu = dir.0.join("empty-imu.txt");
@@ -101,6 +104,7 @@ fn an_attitude_file_without_samples_is_refused() {
 /// is covered and which windows went without derotation, and those windows say so.
 #[test]
 fn attitude_that_covers_part_of_the_flight_is_named_window_by_window() {
+    let _cpu = common::cpu::heavy();
     let dir = common::TempDir::new("replay-part-imu");
     write_inputs(&dir.0);
     let imu = dir.0.join("half-imu.txt");
@@ -171,6 +175,7 @@ fn attitude_that_covers_part_of_the_flight_is_named_window_by_window() {
 
 #[test]
 fn a_bad_number_is_refused_with_its_line_column_and_field() {
+    let _cpu = common::cpu::heavy();
     let dir = common::TempDir::new("replay-nan-imu");
     write_inputs(&dir.0);
     let imu = dir.0.join("nan-imu.txt");
@@ -201,6 +206,7 @@ fn a_bad_number_is_refused_with_its_line_column_and_field() {
 /// derotated.
 #[test]
 fn without_attitude_no_window_says_derotated() {
+    let _cpu = common::cpu::heavy();
     let dir = common::TempDir::new("replay-no-imu");
     write_inputs(&dir.0);
     let events = dir.0.join("events.txt");
