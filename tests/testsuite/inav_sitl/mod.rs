@@ -700,7 +700,7 @@ fn the_bench_script_measures_rates_switch_and_a_roll_on_inav() {
     let dir = common::TempDir::new("hil");
     let report = dir.0.join("report.json");
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/hil/bench_check.py");
-    let child = std::process::Command::new("python3")
+    let mut child = std::process::Command::new("python3")
         .arg(script)
         .arg("--device")
         .arg(format!("tcp:127.0.0.1:{}", bench.sitl.port(UART_MAVLINK)))
@@ -712,12 +712,33 @@ fn the_bench_script_measures_rates_switch_and_a_roll_on_inav() {
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
-        .expect("python3 with pymavlink is needed for the bench script");
+        .expect("python3 runs the bench script");
     // The pilot: MANUAL for the rate check and the first switch reading, then AUTO.
-    std::thread::sleep(Duration::from_secs(7));
+    // The script reads MANUAL right after it prints its rates, which come after iNav's
+    // first HEARTBEAT and five seconds of counting: a fixed wait fails on a slow start.
+    let lines = std::io::BufRead::lines(std::io::BufReader::new(child.stdout.take().unwrap()));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        for line in lines.map_while(Result::ok) {
+            let _ = tx.send(line);
+        }
+    });
+    let mut stdout = String::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    while let Ok(line) =
+        rx.recv_timeout(deadline.saturating_duration_since(std::time::Instant::now()))
+    {
+        stdout.push_str(&line);
+        stdout.push('\n');
+        if line.starts_with("rates (Hz):") {
+            break;
+        }
+    }
+    std::thread::sleep(Duration::from_secs(1));
     bench.radio.set(CH_SWITCH, AUTO_US);
     let out = child.wait_with_output().unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    reader.join().unwrap();
+    stdout.extend(rx.try_iter().map(|l| l + "\n"));
     assert!(
         out.status.success(),
         "bench script failed:\n{stdout}\n{}",
