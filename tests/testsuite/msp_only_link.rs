@@ -162,19 +162,8 @@ fn a_flight_over_msp_records_inavs_rounded_gyro_and_replays_exactly() {
     std::thread::sleep(Duration::from_millis(2500));
     assert!(daemon.stop().success());
     drop(mock);
-    let mut names: Vec<_> = std::fs::read_dir(daemon.flights_dir())
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    names.sort();
-    let find = |suffix: &str| {
-        names
-            .iter()
-            .find(|p| p.to_string_lossy().ends_with(suffix))
-            .unwrap_or_else(|| panic!("no {suffix} in {names:?}"))
-            .clone()
-    };
-    let (aedat, tlog, windows) = (find(".aedat4"), find(".tlog"), find(".windows.jsonl"));
+    let flight = crate::common::recording::flight(&daemon.flights_dir());
+    let (aedat, tlog, windows) = (flight.events, flight.tlog, flight.windows);
     let mut r = TlogReader::new(std::fs::File::open(&tlog).unwrap());
     let mut rates = Vec::new();
     while let Some(rec) = r.next_record().unwrap() {

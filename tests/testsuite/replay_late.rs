@@ -8,41 +8,16 @@
 
 use crate::common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use common::autopilot::{Controls, MockAutopilot};
 use common::daemon::Daemon;
+use common::recording::{Flight, flight};
 use faithd_formats::tlog::TlogReader;
 use mavlink::dialects::common::MavMessage;
-
-/// The three files of one flight.
-struct Recording {
-    events: PathBuf,
-    tlog: PathBuf,
-    windows: PathBuf,
-}
-
-fn recording(dir: &Path) -> Recording {
-    let names: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    let find = |suffix: &str| {
-        names
-            .iter()
-            .find(|p| p.to_string_lossy().ends_with(suffix))
-            .unwrap_or_else(|| panic!("no {suffix} in {names:?}"))
-            .clone()
-    };
-    Recording {
-        events: find(".aedat4"),
-        tlog: find(".tlog"),
-        windows: find(".windows.jsonl"),
-    }
-}
 
 fn json_lines(path: &Path) -> Vec<serde_json::Value> {
     std::fs::read_to_string(path)
@@ -54,7 +29,7 @@ fn json_lines(path: &Path) -> Vec<serde_json::Value> {
 
 /// From the files alone: the windows that had fewer attitude samples than the .tlog
 /// shows had arrived by their end, and all windows.
-fn late_windows(rec: &Recording) -> (usize, usize) {
+fn late_windows(rec: &Flight) -> (usize, usize) {
     let log = json_lines(&rec.windows);
     let clock_start_unix_us = log[0]["clock_start_unix_us"].as_i64().unwrap();
     let mut arrivals = Vec::new();
@@ -76,7 +51,7 @@ fn late_windows(rec: &Recording) -> (usize, usize) {
     (late, log.len() - 1)
 }
 
-fn replay(rec: &Recording, windows: &Path) -> (Option<i32>, String) {
+fn replay(rec: &Flight, windows: &Path) -> (Option<i32>, String) {
     let out = common::faithd()
         .args(["replay", "--json", "--events"])
         .arg(&rec.events)
@@ -114,7 +89,7 @@ fn a_flight_whose_attitude_reached_the_pipeline_late_replays_exactly() {
         "the journal names the hook: {}",
         daemon.log()
     );
-    let rec = recording(&daemon.flights_dir());
+    let rec = flight(&daemon.flights_dir());
     let (late, windows) = late_windows(&rec);
     eprintln!("measured: {late} of {windows} windows ran before attitude that had arrived");
     assert!(windows > 100, "{windows} windows logged");

@@ -25,3 +25,31 @@ pub fn write_level_tlog(path: &Path, last_ms: u32) {
     }
     tlog.flush().unwrap();
 }
+
+/// The three files of one flight the daemon recorded into `dir`.
+pub struct Flight {
+    pub events: std::path::PathBuf,
+    pub tlog: std::path::PathBuf,
+    pub windows: std::path::PathBuf,
+}
+
+/// The flight in `dir` (a test's flights directory holds one).
+pub fn flight(dir: &Path) -> Flight {
+    let mut names: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    let find = |suffix: &str| {
+        names
+            .iter()
+            .find(|p| p.to_string_lossy().ends_with(suffix))
+            .unwrap_or_else(|| panic!("no {suffix} in {names:?}"))
+            .clone()
+    };
+    Flight {
+        events: find(".aedat4"),
+        tlog: find(".tlog"),
+        windows: find(".windows.jsonl"),
+    }
+}
