@@ -262,7 +262,8 @@ fn avoids_the_pole(link: Link) {
     let exe = sitl::executable().unwrap();
     let flights = fly_all(&plan(5, 1), &exe, link, |i, c| {
         println!(
-            "flight {} ({link:?}): {} {:+.2} m; iNav {:?}; model {:?}",
+            "flight {} ({link:?}): {} {:+.2} m; faithd decided {:?} ms after the event; \
+             iNav's loop: {}; iNav {:?}; model {:?}",
             i + 1,
             if c.inav.collision_course {
                 "collision"
@@ -270,21 +271,32 @@ fn avoids_the_pole(link: Link) {
                 "near pass"
             },
             c.spec.lateral_offset_m,
+            c.decision_ms,
+            c.stalls.describe(),
             c.inav,
             c.model
         )
     })
     .unwrap_or_else(|e| panic!("{e}"));
+    // A stall of iNav's loop (a loaded machine) is reported; it fails a flight only
+    // where it could have changed what the flight shows (faithd::inav_sitl::stalls).
     let mut rolls: Vec<RollFigures> = Vec::new();
+    let mut disturbed = 0;
     for c in &flights {
         let f = c.inav;
         assert!(f.max_tilt_deg < 30.0, "{f:?}");
-        assert_eq!(c.late_exchanges, 0, "iNav's loop stalled: {c:?}");
         if f.collision_course {
             assert!(f.rolled && !f.collided, "not avoided: {f:?}");
+            if let Some(why) = c.stalls.doubts_avoidance(f.min_clearance_m) {
+                panic!("{why}: {f:?}");
+            }
             assert!(f.height_change_m.unwrap() < 0.5, "{f:?}");
+            if c.stalls.disturbs_roll() {
+                disturbed += 1;
+                continue;
+            }
             assert!(
-                measured::PEAK_BANK_DEG.holds(f.peak_bank_deg.unwrap()),
+                measured::PEAK_BANK_DEG.holds_on_inav(f.peak_bank_deg.unwrap()),
                 "{f:?}"
             );
             rolls.push(f);
@@ -292,9 +304,25 @@ fn avoids_the_pole(link: Link) {
             assert!(!f.rolled, "rolled on a near pass: {f:?}");
         }
     }
+    let late: u64 = flights.iter().map(|c| c.stalls.late_exchanges).sum();
+    let exchanges: u64 = flights.iter().map(|c| c.exchanges).sum();
+    let worst_ms = flights
+        .iter()
+        .map(|c| c.stalls.worst_ms)
+        .fold(0.0, f64::max);
+    println!(
+        "iNav's loop ({link:?}): {late} of {exchanges} exchanges late, the longest stall \
+         {worst_ms:.0} ms; {disturbed} of {} rolls disturbed by a stall and left out of \
+         the bounds",
+        disturbed + rolls.len()
+    );
+    assert!(
+        !rolls.is_empty(),
+        "a stall of iNav's loop fell in every roll: nothing left to hold iNav's timings to"
+    );
     let timings = measured::RollTimings::of(&rolls);
     println!("iNav ({link:?}): {timings:?}");
-    if let Err(why) = timings.check() {
+    if let Err(why) = timings.check_inav() {
         panic!("iNav no longer does what it did in the experiment: {why}");
     }
 }

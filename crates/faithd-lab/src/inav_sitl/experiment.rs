@@ -122,7 +122,10 @@ pub struct Compared {
     pub mix_before_roll: Option<f64>,
     pub sitl_restarts: u32,
     pub exchanges: u64,
-    pub late_exchanges: u64,
+    /// Where iNav's loop stalled ([`super::stalls`]).
+    pub stalls: super::stalls::StallFigures,
+    /// From the deciding event to faithd's roll on this machine, ms.
+    pub decision_ms: Option<f64>,
     /// The iNav flight's path, every 10 ms from the model's start point.
     pub path: Vec<super::flight::SitlPathPoint>,
 }
@@ -150,7 +153,8 @@ pub fn fly_all(
             mix_before_roll: inav.mix_before_roll,
             sitl_restarts: inav.sitl_restarts,
             exchanges: inav.exchanges,
-            late_exchanges: inav.late_exchanges,
+            stalls: inav.stalls,
+            decision_ms: inav.decision_ms,
             path: inav.path,
         };
         done(i, &compared);
@@ -234,6 +238,10 @@ pub struct Report {
     /// Flights where iNav and the model came out the same (rolled or not, hit or not).
     pub same_outcome: usize,
     pub late_exchanges: u64,
+    /// The longest stall of iNav's loop in any flight, ms.
+    pub worst_stall_ms: f64,
+    /// Rolls with a stall in their span ([`super::stalls`]).
+    pub disturbed_rolls: usize,
     pub exchanges: u64,
     /// SITLs that ended by themselves while starting, and were started afresh.
     pub sitl_restarts: u32,
@@ -251,7 +259,12 @@ pub fn report(flights: &[Compared], seed: u64, link: Link) -> Report {
             .iter()
             .filter(|c| c.inav.rolled == c.model.rolled && c.inav.collided == c.model.collided)
             .count(),
-        late_exchanges: flights.iter().map(|c| c.late_exchanges).sum(),
+        late_exchanges: flights.iter().map(|c| c.stalls.late_exchanges).sum(),
+        worst_stall_ms: flights
+            .iter()
+            .map(|c| c.stalls.worst_ms)
+            .fold(0.0, f64::max),
+        disturbed_rolls: flights.iter().filter(|c| c.stalls.disturbs_roll()).count(),
         exchanges: flights.iter().map(|c| c.exchanges).sum(),
         sitl_restarts: flights.iter().map(|c| c.sitl_restarts).sum(),
     }
@@ -320,9 +333,16 @@ impl Report {
             out.push_str(&format!("| {what} | {x} | {y} |\n"));
         }
         out.push_str(&format!(
-            "\n{} of {} flights came out the same on both; RealFlight: {} exchanges, {} late; \
+            "\n{} of {} flights came out the same on both; RealFlight: {} exchanges, {} late \
+             (the longest stall of iNav's loop {:.0} ms; {} rolls disturbed by one); \
              {} SITLs ended by themselves while starting and were started afresh.\n",
-            self.same_outcome, a.runs, self.exchanges, self.late_exchanges, self.sitl_restarts
+            self.same_outcome,
+            a.runs,
+            self.exchanges,
+            self.late_exchanges,
+            self.worst_stall_ms,
+            self.disturbed_rolls,
+            self.sitl_restarts
         ));
         out
     }

@@ -29,6 +29,7 @@ use super::process::{
     self, Sitl, SitlError, UART_CLI, UART_MAVLINK, UART_MONITOR, UART_MSP_FAITHD,
 };
 use super::radio::{AUTO_US, CH_PITCH, CH_ROLL, CH_SWITCH, CH_THROTTLE, MANUAL_US, Radio};
+use super::stalls::{Spans, StallFigures};
 use crate::closed_loop::camera::{arena, optics};
 use crate::closed_loop::physics::clearance_m;
 use crate::closed_loop::{CameraKind, FlightSpec};
@@ -150,9 +151,13 @@ pub struct SitlOutcome {
     pub speed_at_start_m_s: f64,
     /// Fresh SITLs started because one ended by itself while starting.
     pub sitl_restarts: u32,
-    /// RealFlight exchanges answered and answered late (iNav's loop stalled).
+    /// RealFlight exchanges answered.
     pub exchanges: u64,
-    pub late_exchanges: u64,
+    /// Where iNav's loop stalled, and what that could have changed.
+    pub stalls: StallFigures,
+    /// From the newest event of the deciding window to faithd's roll: its pipeline
+    /// and gate on this machine, ms.
+    pub decision_ms: Option<f64>,
     pub path: Vec<SitlPathPoint>,
 }
 
@@ -415,12 +420,26 @@ fn measure(
         speed_at_start_m_s: flown.speed_at_start_m_s,
         sitl_restarts: 0,
         exchanges: world.counters.exchanges.load(Ordering::Relaxed),
-        late_exchanges: world.counters.late_exchanges.load(Ordering::Relaxed),
+        stalls: StallFigures::default(),
+        decision_ms: None,
         path: flown.path.iter().map(|(_, p)| *p).collect(),
     };
+    let stalls = world
+        .stalls
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .clone();
+    let mut spans = Spans {
+        course_start: flown.instant_of(flown.start_us),
+        mixer: None,
+        roll: None,
+        approach_speed_m_s: fastest_m_s(&flown.path, i64::MAX),
+    };
     let Some((event_us, started_us, action)) = started else {
+        outcome.stalls = StallFigures::of(&stalls, spans);
         return outcome;
     };
+    outcome.decision_ms = Some((started_us - event_us) as f64 / 1e3);
     let sign = match action {
         Action::Roll {
             direction: RollDirection::Left,
@@ -447,10 +466,21 @@ fn measure(
             .map(|(_, m)| m.abs())
             .fold(0.0, f64::max),
     );
-    outcome.in_effect_ms = mix
+    let in_effect_at = mix
         .iter()
         .find(|(at, mix)| *at >= started_at && mix * sign > ROLL_MIX_IN_EFFECT)
-        .map(|(at, _)| ms_after_event(flown.daemon_us(*at)));
+        .map(|(at, _)| *at);
+    outcome.in_effect_ms = in_effect_at.map(|at| ms_after_event(flown.daemon_us(at)));
+    spans.mixer = in_effect_at;
+    spans.roll = Some((
+        flown.instant_of(event_us),
+        flown.instant_of(started_us + 2_000_000),
+    ));
+    spans.approach_speed_m_s = fastest_m_s(
+        &flown.path,
+        in_effect_at.map_or(i64::MAX, |at| flown.daemon_us(at)),
+    );
+    outcome.stalls = StallFigures::of(&stalls, spans);
     let roll: Vec<&(i64, SitlPathPoint)> = flown
         .path
         .iter()
@@ -479,6 +509,14 @@ fn measure(
             .fold(0.0, f64::max),
     );
     outcome
+}
+
+/// The fastest along the course in the path until daemon time `until_us`, m/s.
+fn fastest_m_s(path: &[(i64, SitlPathPoint)], until_us: i64) -> f64 {
+    path.iter()
+        .take_while(|(t, _)| *t <= until_us)
+        .map(|(_, p)| p.speed_m_s.abs())
+        .fold(0.0, f64::max)
 }
 
 /// The real daemon, on a runtime of its own, with the line camera as its source.

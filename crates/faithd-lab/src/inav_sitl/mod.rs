@@ -15,6 +15,7 @@ pub mod msp_client; // the harness's MSP client and the commands it asks
 pub mod pilot; // the scripted pilot's hands
 pub mod process; // the SITL process and its CLI
 pub mod radio; // the pilot's IBUS receiver
+pub mod stalls; // how iNav's loop stalled, and what a stall could have changed
 
 pub use flight::{SitlOutcome, fly};
 pub use process::{Sitl, SitlError};

@@ -7,7 +7,9 @@
 //! sensor rate. This one steps the physics 1 ms per exchange and holds each answer
 //! until the wall clock has caught up with the physics, so iNav sees a 1 kHz sensor
 //! loop in real time; when iNav is late the physics catches up in 1 ms steps (at most
-//! [`MAX_CATCH_UP_STEPS`] at once, counted in `Counters::late_exchanges` beyond).
+//! [`MAX_CATCH_UP_STEPS`] at once; beyond, the exchange is late: counted in
+//! `Counters::late_exchanges`, its stall kept in `World::stalls`, and the physics clock
+//! jumps to the wall clock, the vehicle standing still for the time skipped).
 //!
 //! SITL always calls port 18083 (realFlight.c:60, 473) on the address `--simip`
 //! names, so two flights at once take two loopback addresses (127.0.0.2, 127.0.0.3...).
@@ -34,6 +36,14 @@ pub const MAX_CATCH_UP_STEPS: u32 = 20;
 /// M01-01,M02-02,M03-03,M04-04` puts motor n on channel n.
 pub const MOTOR_CHANNELS: [usize; 4] = [0, 1, 2, 3];
 
+/// An exchange iNav came to late: its loop had been away for `stalled_ms` of wall
+/// time (the physics that far behind), more than the [`MAX_CATCH_UP_STEPS`] caught up.
+#[derive(Clone, Copy, Debug)]
+pub struct Stall {
+    pub at: Instant,
+    pub stalled_ms: f64,
+}
+
 #[derive(Debug, Default)]
 pub struct Counters {
     pub exchanges: AtomicU64,
@@ -54,6 +64,8 @@ pub struct World {
     /// command minus the right ones' (positive rolls right). What iNav did with a
     /// roll stick shows here first, a millisecond after its PID loop ran.
     pub roll_mix: Mutex<Vec<(Instant, f64)>>,
+    /// Every late exchange, in order.
+    pub stalls: Mutex<Vec<Stall>>,
     /// The wall-clock instant of the physics' time zero.
     pub origin: Instant,
 }
@@ -66,6 +78,7 @@ impl World {
             extras: Mutex::new(Extras::default()),
             counters: Counters::default(),
             roll_mix: Mutex::new(Vec::new()),
+            stalls: Mutex::new(Vec::new()),
             origin: Instant::now(),
         })
     }
@@ -179,6 +192,14 @@ fn exchange(world: &World, motors: [f64; 4]) -> QuadX {
             .counters
             .late_exchanges
             .fetch_add(1, Ordering::Relaxed);
+        world
+            .stalls
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(Stall {
+                at: Instant::now(),
+                stalled_ms: behind_s * 1e3,
+            });
     }
     let steps = steps.min(f64::from(MAX_CATCH_UP_STEPS)) as u32;
     for _ in 0..steps {
@@ -277,5 +298,39 @@ mod tests {
         assert!(broken.starts_with("HTTP/1.1 500"), "{broken}");
         assert!(broken.contains("m-channelValues-0to1"), "{broken}");
         assert_eq!(world.counters.bad_requests.load(Ordering::Relaxed), 1);
+    }
+
+    /// iNav away for 80 ms: the exchange after it is late, its stall is kept with how
+    /// long iNav was away, and the vehicle stood still for what the catch-up skipped.
+    #[test]
+    fn an_exchange_after_a_stall_is_late_and_the_stall_is_kept() {
+        let world = World::new(QuadX::on_ground(
+            QuadXConfig::default(),
+            Vector3::zeros(),
+            0.0,
+        ));
+        let server = Server::start("127.0.0.4".parse().unwrap(), world.clone()).unwrap();
+        for _ in 0..50 {
+            exchange(server.addr, 0.6);
+        }
+        let before = world.quad().t_s;
+        std::thread::sleep(Duration::from_millis(80));
+        let away = Instant::now();
+        exchange(server.addr, 0.6);
+        let stalls = world.stalls.lock().unwrap().clone();
+        assert!(!stalls.is_empty(), "no stall kept");
+        let last = stalls.last().unwrap();
+        assert!(last.at >= away, "{last:?}");
+        assert!(last.stalled_ms >= 80.0, "{last:?}");
+        assert_eq!(
+            world.counters.late_exchanges.load(Ordering::Relaxed),
+            stalls.len() as u64
+        );
+        // The physics clock is at the wall clock again, not 20 steps on.
+        assert!(
+            world.quad().t_s - before >= 0.080,
+            "{}",
+            world.quad().t_s - before
+        );
     }
 }
