@@ -121,7 +121,11 @@ fn relay(faithd: TcpStream, port: u16, crossed: &Arc<Mutex<Vec<Crossed>>>, stop:
     let _ = back.join();
 }
 
-/// Copies `from` to `to`, noting each complete MSP frame.
+/// Copies `from` to `to`, noting each complete MSP frame before it is handed on: a
+/// frame noted after the write can be noted after the answer it caused (a reply
+/// handed to faithd, the pump descheduled, faithd's next request noted first), and
+/// the wire would seem to hold two requests at once. Noted first, the record keeps
+/// the order in which the frames crossed.
 fn pump(
     mut from: TcpStream,
     mut to: TcpStream,
@@ -135,9 +139,6 @@ fn pump(
         match from.read(&mut buf) {
             Ok(0) => break,
             Ok(n) => {
-                if to.write_all(&buf[..n]).is_err() {
-                    break;
-                }
                 let mut frames = Vec::new();
                 decoder.push(&buf[..n], &mut frames);
                 let t_us = unix_us();
@@ -149,6 +150,9 @@ fn pump(
                         to_inav,
                         command: f.command,
                     }));
+                if to.write_all(&buf[..n]).is_err() {
+                    break;
+                }
             }
             Err(e)
                 if matches!(
