@@ -13,9 +13,9 @@ use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
-use common::autopilot::{Controls, MockAutopilot};
+use common::autopilot::{Controls, MockAutopilot, PILOT_ROLL_US};
 use common::daemon::Daemon;
-use common::msp::{MspMock, is_roll};
+use common::msp::MspMock;
 use common::{TempDir, point_symlink, poll_until};
 
 /// The defaults the daemon runs with (config/faithd.toml).
@@ -49,7 +49,21 @@ fn wait_for_roll(mock: &MockAutopilot, daemon: &Daemon, what: &str) -> Instant {
     mock.first_roll().unwrap()
 }
 
-/// The first frame faithd wrote at or after `t` that carries the centre on roll.
+/// The release as iNav took it: when, at or after `t`, it first used a roll that is
+/// not faithd's, and what it used (the centre in AUTO, the pilot's stick in MANUAL).
+fn released_after(msp: &MspMock, t: Instant) -> Option<(Instant, u16)> {
+    msp.unrolled_after(t)
+}
+
+/// Whether iNav used a roll of faithd's at or after `t`.
+fn rolled_after(msp: &MspMock, t: Instant) -> bool {
+    msp.roll_after(t).is_some()
+}
+
+/// What faithd's frames carried, for where iNav does not use them, so that what iNav
+/// used cannot show a roll: in MANUAL (a roll left in the stream would come back at
+/// the next AUTO) and with an override iNav ignores. The first frame iNav served at
+/// or after `t` with the centre on roll.
 fn centre_frame_after(msp: &MspMock, t: Instant) -> Option<Instant> {
     msp.frames
         .lock()
@@ -59,12 +73,14 @@ fn centre_frame_after(msp: &MspMock, t: Instant) -> Option<Instant> {
         .map(|(at, _)| *at)
 }
 
+/// The frames iNav served after `t` with anything but the centre on roll (see
+/// [`centre_frame_after`] for where they are the evidence).
 fn roll_frames_after(msp: &MspMock, t: Instant) -> usize {
     msp.frames
         .lock()
         .unwrap()
         .iter()
-        .filter(|(at, ch)| *at > t && is_roll(ch[0]))
+        .filter(|(at, ch)| *at > t && ch[0] != CENTRE_US)
         .count()
 }
 
@@ -97,7 +113,8 @@ fn a_roll_in_auto_lasts_its_time_and_touches_roll_alone() {
     let mut pilots = vec![CENTRE_US, 1400, CENTRE_US, 1900, 1900, 1000, 1000];
     pilots.extend([CENTRE_US; 10]);
     for (_, ch) in &frames {
-        assert!(ch[0] == CENTRE_US || is_roll(ch[0]), "{ch:?}");
+        // The centre, or the 300 us roll faithd means.
+        assert!([CENTRE_US, 1200, 1800].contains(&ch[0]), "{ch:?}");
         assert!(ch[1..] == [CENTRE_US; 3] || ch[1..] == pilots[..], "{ch:?}");
     }
     assert!(frames.iter().any(|(_, ch)| ch[1..] == pilots[..]));
@@ -107,8 +124,6 @@ fn a_roll_in_auto_lasts_its_time_and_touches_roll_alone() {
         worst <= ROLL_FRAME_PERIOD + SLOT / 2 + SLACK,
         "stream gap {worst:?}"
     );
-    // Like iNav beside a radio, the mock ignores RC_CHANNELS_OVERRIDE; faithd sends none.
-    assert!(mock.overrides().is_empty());
     assert!(daemon.stop().success());
 }
 
@@ -130,6 +145,7 @@ fn manual_or_disarmed_means_no_roll_is_ever_commanded() {
         std::thread::sleep(Duration::from_millis(500));
         assert!(mock.heartbeats() > 0, "{what}: the link never came up");
         assert_eq!(mock.first_roll(), None, "{what}: iNav used a roll");
+        // In MANUAL iNav does not use the override: only the frames show one not sent.
         assert_eq!(
             roll_frames_after(&mock.msp, Instant::now() - Duration::from_secs(60)),
             0,
@@ -148,9 +164,23 @@ fn switching_to_manual_mid_manoeuvre_releases_within_one_send_period() {
     mock.controls.switch_us.store(1000, Ordering::Relaxed);
     let flipped = Instant::now();
     std::thread::sleep(Duration::from_millis(800));
+    // iNav drops the override itself once its switch leaves AUTO: the pilot's stick.
+    let (back, used) = released_after(&mock.msp, flipped).expect("iNav released the roll");
+    assert_eq!(
+        used, PILOT_ROLL_US,
+        "iNav used {used} after the switch left AUTO"
+    );
+    assert!(
+        !rolled_after(&mock.msp, back),
+        "iNav used a roll after the pilot took over"
+    );
+    // faithd lets go too: iNav no longer uses its frames, so they are the evidence
+    // (a roll left in them would come back at the next AUTO).
     let centre = centre_frame_after(&mock.msp, flipped).expect("released");
     eprintln!(
-        "measured: centre written {:?} after the switch left AUTO",
+        "measured: iNav on the pilot's stick {:?}, faithd's centre served {:?} after the \
+         switch left AUTO",
+        back - flipped,
         centre - flipped
     );
     // iNav's status (MSP, every period) or RC_CHANNELS (every 20 ms here), whichever
@@ -182,8 +212,9 @@ fn stale_attitude_or_rc_stops_commands() {
         flag.store(false, Ordering::Relaxed);
         let stopped = Instant::now();
         std::thread::sleep(Duration::from_millis(limit + 400));
-        let centre = centre_frame_after(&mock.msp, stopped)
-            .unwrap_or_else(|| panic!("{which}: never released"));
+        let (centre, used) =
+            released_after(&mock.msp, stopped).unwrap_or_else(|| panic!("{which}: never released"));
+        assert_eq!(used, CENTRE_US, "{which}: AUTO holds the centre");
         let bound = Duration::from_millis(limit) + TO_INAV + SLACK;
         eprintln!(
             "measured: {which} stopped, released after {:?}",
@@ -194,9 +225,8 @@ fn stale_attitude_or_rc_stops_commands() {
             "{which}: released {:?} after the data stopped",
             centre - stopped
         );
-        assert_eq!(
-            roll_frames_after(&mock.msp, centre),
-            0,
+        assert!(
+            !rolled_after(&mock.msp, centre),
             "{which}: rolled on stale data"
         );
         assert!(daemon.log().contains("stale"), "{}", daemon.log());
@@ -221,12 +251,13 @@ fn the_autopilots_failsafe_or_radio_loss_closes_the_gate() {
         }
         let at = Instant::now();
         std::thread::sleep(Duration::from_millis(600));
-        let centre = centre_frame_after(&mock.msp, at)
+        let (centre, used) = released_after(&mock.msp, at)
             .unwrap_or_else(|| panic!("{what}: never released:\n{}", daemon.log()));
+        assert_eq!(used, CENTRE_US, "{what}: AUTO holds the centre");
         eprintln!("measured: {what}: released {:?} after", centre - at);
         // The mock reports both every 200 ms (MSP status every period).
         assert!(centre - at <= Duration::from_millis(200) + TO_INAV + SLACK);
-        assert_eq!(roll_frames_after(&mock.msp, centre), 0, "{what}");
+        assert!(!rolled_after(&mock.msp, centre), "{what}");
         assert!(daemon.log().contains(blocker), "{what}: {}", daemon.log());
         assert!(daemon.stop().success());
     }
@@ -349,9 +380,10 @@ fn the_mavlink_link_lost_mid_roll_releases_on_the_msp_port_at_once() {
     mock.unplug_mavlink();
     let at = Instant::now();
     std::thread::sleep(Duration::from_millis(500));
-    let centre = centre_frame_after(&mock.msp, at).expect("released");
+    let (centre, used) = released_after(&mock.msp, at).expect("released");
+    assert_eq!(used, CENTRE_US, "AUTO holds the centre");
     eprintln!(
-        "measured: MAVLink port gone, centre written {:?} after",
+        "measured: MAVLink port gone, centre in use on iNav {:?} after",
         centre - at
     );
     // The port reports the loss at once, or ATTITUDE goes stale (100 ms).
@@ -360,7 +392,7 @@ fn the_mavlink_link_lost_mid_roll_releases_on_the_msp_port_at_once() {
         "released {:?} after the link went",
         centre - at
     );
-    assert_eq!(roll_frames_after(&mock.msp, centre), 0);
+    assert!(!rolled_after(&mock.msp, centre));
     assert!(daemon.stop().success());
 }
 
@@ -388,7 +420,10 @@ fn every_shutdown_signal_writes_the_release_repeatedly() {
             .count();
         // release_repeats = 3 (and perhaps one regular frame before the signal).
         assert!(centres >= 3, "{signal}: {centres} centre frames after it");
-        assert_eq!(roll_frames_after(&mock.msp, at + TO_INAV), 0);
+        assert!(
+            !rolled_after(&mock.msp, at + TO_INAV),
+            "{signal}: iNav used a roll after the release"
+        );
         let log = daemon.log();
         assert!(
             log.contains(&format!("shutdown requested ({signal})")),
@@ -956,11 +991,12 @@ fn a_calibrated_asymmetric_receiver_gets_the_roll_meant() {
         .filter(|(t, _)| *t >= rolled)
         .map(|(_, v)| *v)
         .collect();
+    let meant = [1200, CENTRE_US, 1800];
     assert!(
-        used.iter().all(|v| is_roll(*v) || *v == CENTRE_US),
+        used.iter().all(|v| meant.contains(v)),
         "iNav used {:?}",
         used.iter()
-            .filter(|v| !is_roll(**v) && **v != CENTRE_US)
+            .filter(|v| !meant.contains(v))
             .collect::<Vec<_>>()
     );
     // Not told: faithd's 1800 arrives as 1788, its centre as 1490, and the roll is
@@ -1037,8 +1073,9 @@ fn a_radio_status_that_stops_closes_the_gate() {
         daemon.log()
     );
     std::thread::sleep(Duration::from_millis(500));
-    let centre = centre_frame_after(&mock.msp, at).expect("released");
+    let (centre, used) = released_after(&mock.msp, at).expect("released");
+    assert_eq!(used, CENTRE_US, "AUTO holds the centre");
     assert!(centre - at <= Duration::from_millis(300) + TO_INAV + SLACK);
-    assert_eq!(roll_frames_after(&mock.msp, centre), 0);
+    assert!(!rolled_after(&mock.msp, centre));
     assert!(daemon.stop().success());
 }

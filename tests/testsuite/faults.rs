@@ -63,9 +63,9 @@ fn a_requested_stop_joins_every_thread_before_serve_returns() {
         camera_ended.load(Ordering::SeqCst),
         "the camera thread outlived serve"
     );
-    // The release reached the port: the last frame faithd wrote is the centre.
-    let frames = mock.msp.frames.lock().unwrap().clone();
-    assert_eq!(frames.last().map(|(_, ch)| ch[0]), Some(1500));
+    // The release reached iNav: the roll it uses now is none of faithd's.
+    let last = mock.msp.roll_log.lock().unwrap().last().map(|(_, v)| *v);
+    assert!(last.is_some_and(|v| !is_roll(v)), "iNav uses {last:?}");
 }
 
 #[test]
@@ -132,26 +132,21 @@ fn a_panic_mid_roll_releases_the_roll_at_once_and_ends_the_daemon_with_a_fault()
         }
         other => panic!("ended without a fault: {other:?}"),
     }
-    // Mid-roll (the roll lasts 1.5 s), the centre reaches the port well before the
-    // pipeline could notice the missing events (200 ms), and nothing rolls after.
-    let frames = mock.msp.frames.lock().unwrap().clone();
-    let centre = frames
-        .iter()
-        .find(|(at, ch)| *at >= panicked_at && !is_roll(ch[0]))
-        .map(|(at, _)| *at)
-        .expect("a centre frame after the panic");
+    // Mid-roll (the roll lasts 1.5 s), iNav uses the centre well before the pipeline
+    // could notice the missing events (200 ms), and nothing rolls after.
+    let (centre, used) = mock
+        .msp
+        .unrolled_after(panicked_at)
+        .expect("iNav released the roll after the panic");
+    assert_eq!(used, 1500, "AUTO holds the centre");
     assert!(
         centre - panicked_at < Duration::from_millis(100),
         "released {:?} after the panic",
         centre - panicked_at
     );
     assert!(
-        frames
-            .iter()
-            .filter(|(at, ch)| *at > centre && is_roll(ch[0]))
-            .count()
-            == 0,
-        "a roll frame after the release"
+        mock.msp.roll_after(centre).is_none(),
+        "iNav used a roll after the release"
     );
     assert!(returned_at - panicked_at < Duration::from_secs(3));
 }
@@ -218,14 +213,13 @@ fn a_panic_in_the_commander_mid_roll_releases_within_100_ms() {
             .is_some(),
         "iNav used the roll before the panic"
     );
-    let frames = mock.msp.frames.lock().unwrap().clone();
-    let centre = frames
-        .iter()
-        .find(|(t, ch)| *t >= panicked_at && !is_roll(ch[0]))
-        .map(|(t, _)| *t)
-        .expect("a centre frame after the panic");
+    let (centre, used) = mock
+        .msp
+        .unrolled_after(panicked_at)
+        .expect("iNav released the roll after the panic");
+    assert_eq!(used, 1500, "AUTO holds the centre");
     eprintln!(
-        "measured: commander panic, centre served by iNav {:?} after",
+        "measured: commander panic, the centre in use on iNav {:?} after",
         centre - panicked_at
     );
     assert!(
@@ -234,7 +228,7 @@ fn a_panic_in_the_commander_mid_roll_releases_within_100_ms() {
         centre - panicked_at
     );
     assert!(
-        frames.iter().all(|(t, ch)| *t <= centre || !is_roll(ch[0])),
-        "a roll frame after the release"
+        mock.msp.roll_after(centre).is_none(),
+        "iNav used a roll after the release"
     );
 }

@@ -422,18 +422,6 @@ impl MockAutopilot {
         }
     }
 
-    pub fn overrides(&self) -> Vec<(Instant, RC_CHANNELS_OVERRIDE_DATA)> {
-        self.received
-            .lock()
-            .unwrap()
-            .iter()
-            .filter_map(|r| match &r.msg {
-                MavMessage::RC_CHANNELS_OVERRIDE(o) => Some((r.at, o.clone())),
-                _ => None,
-            })
-            .collect()
-    }
-
     pub fn heartbeats(&self) -> usize {
         self.received
             .lock()

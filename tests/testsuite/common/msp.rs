@@ -7,6 +7,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use faithd_core::safety::rc::NEUTRAL_US;
 use faithd_inav::msp::{InavMsp, MAX_GLOBAL_VARIABLES, Pilot, Setup};
 
 use super::autopilot::{Controls, PILOT_ROLL_US};
@@ -76,8 +77,12 @@ pub struct Traffic {
     pub bytes_lost: u64,
 }
 
+/// A roll iNav uses that is faithd's doing: neither its stick centre (what faithd's
+/// stream holds in AUTO) nor the pilot's stick ([`PILOT_ROLL_US`], what iNav uses with
+/// the override off). Any other value counts, not only the 1200 and 1800 faithd means:
+/// a roll of 1650 is a roll.
 pub fn is_roll(v: u16) -> bool {
-    v == 1200 || v == 1800
+    v != NEUTRAL_US && v != PILOT_ROLL_US
 }
 
 impl MspMock {
@@ -195,7 +200,7 @@ impl MspMock {
         )
     }
 
-    /// When iNav first used a roll (1200 or 1800).
+    /// When iNav first used a roll ([`is_roll`]).
     pub fn first_roll(&self) -> Option<Instant> {
         self.roll_after(Instant::now() - Duration::from_secs(3600))
     }
@@ -210,7 +215,8 @@ impl MspMock {
             .map(|(at, _)| *at)
     }
 
-    /// When iNav first used something other than a roll at or after `t`.
+    /// When iNav first used something other than a roll at or after `t`, and what:
+    /// the release as iNav took it.
     pub fn unrolled_after(&self, t: Instant) -> Option<(Instant, u16)> {
         self.roll_log
             .lock()
