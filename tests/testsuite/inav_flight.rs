@@ -326,28 +326,3 @@ fn avoids_the_pole(link: Link) {
         panic!("iNav no longer does what it did in the experiment: {why}");
     }
 }
-
-/// iNav 10's bank-angle command (MSP2_INAV_FLIGHT_AXIS_ANGLE_OVERRIDE) beside
-/// faithd's stick route on the same vehicle, measured on iNav itself
-/// (`faithd::inav_sitl::angle_override`; docs/inav.md, "iNav 10's bank-angle
-/// command, measured"). A measurement, not a check of faithd: run it by hand on a
-/// SITL built from maintenance-10.x (about 2 minutes):
-/// `INAV_SITL=/path/to/10.x/inav_9.1.0_SITL cargo test --release --test testsuite
-/// inav_flight::inav10_bank_angle_command -- --ignored --nocapture`.
-#[test]
-#[ignore = "a measurement for docs/inav.md on iNav 10's SITL: run by hand with --ignored"]
-fn inav10_bank_angle_command_beside_the_stick_route() {
-    use faithd::inav_sitl::angle_override::{self, Trial};
-    require_sitl!();
-    let _cpu = crate::common::cpu::timed();
-    let exe = sitl::executable().unwrap();
-    let report =
-        angle_override::run(&exe, 3, |t| println!("{t:?}")).unwrap_or_else(|e| panic!("{e}"));
-    println!("{}", report.table());
-    println!("{}", serde_json::to_string(&report).unwrap());
-    for t in &report.trials {
-        assert_eq!(t.refused, 0, "iNav refused a command: {t:?}");
-        assert_eq!(t.angle_mode, t.trial != Trial::Acro, "{t:?}");
-        assert!(t.to_5_deg_ms.is_some(), "never banked 5 degrees: {t:?}");
-    }
-}

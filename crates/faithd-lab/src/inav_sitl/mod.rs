@@ -4,7 +4,6 @@
 //! scripts, flown by a scripted pilot on IBUS, with the real daemon on its MAVLink
 //! and MSP UARTs (`faithd sim --autopilot inav-sitl`).
 
-pub mod angle_override; // iNav 10's bank-angle command beside the stick route, measured
 pub mod clock; // the wall clock in Unix microseconds, the journal's time base
 pub mod course; // where a flight goes: the course line and the height
 pub mod experiment; // many flights, and the model's figures on the same flights
