@@ -1,30 +1,9 @@
-//! FAITH's estimates pinned bit for bit on seeded synthetic fields.
-//!
-//! The expected strings were computed by the code before the speed work of issue 20
-//! (commit 201cddf) and written in here: an optimisation that changes any bit of any
-//! estimate fails this test. They were pinned again once since, for a deliberate
-//! change: the far-field check (`Faith::look_beyond`, issue 20 item 5) moves an
-//! estimate that lies outside the view, with the speed fit on, further out or turns
-//! it into `Unbounded` when the flow says the FOE is further out. It changed the
-//! default and tolerant configurations' noisy fields with an FOE far outside the
-//! view (24 of the 160 estimates, from points just past the border into `Unbounded`
-//! toward the FOE) and, in the default digest, 25 of the 300 fields, every one with
-//! its FOE outside the view (41 to 55 degrees off axis; each came closer or became
-//! `Unbounded`). Every estimate inside the view, and every estimate of the
-//! directions-only and paper configurations (no speed fit, no check), kept every
-//! bit. Pinned a third time when the speed fit's grid went to single precision
-//! (its `J` about the grid's centre, four lanes wide): 43 of the 160 estimates moved,
-//! every one of the default and tolerant configurations with the speed fit, by 1e-6
-//! px typically and 3e-3 px at most, none from a point to `Unbounded` or to another
-//! side; the directions-only and paper digests kept every bit, and `bench foe` seeds
-//! 1 to 3 kept their figures to the third decimal. Pinned a fourth time when the core
-//! took its sines, arc tangents and `hypot` from `faithd_core::math` (the same bits on
-//! x86-64 and arm64, issue 42) instead of the platform's libm: 23 of the 160 estimates
-//! moved, by 2.8e-14 px at most, none in its support or its kind; the default digest
-//! changed, the directions-only and paper digests kept every bit. The `Debug` form of an f64 is its
-//! shortest round-trip decimal, so equal strings mean equal bits. Keeping the
-//! estimates identical keeps every published accuracy figure (docs/performance.md,
-//! docs/tuning.md) valid.
+//! FAITH's estimates pinned bit for bit on seeded synthetic fields: an optimisation
+//! that changes any bit of any estimate fails here, and keeping them identical keeps
+//! every published accuracy figure (docs/performance.md, docs/tuning.md) valid. The
+//! `Debug` form of an f64 is its shortest round-trip decimal, so equal strings mean
+//! equal bits. A deliberate change pins them again, and docs/tuning.md ("The pinned
+//! FOE estimates") says what moved and by how much.
 //!
 //! `PRINT_PINNED=1 cargo test -p faithd-core --test foe_pinned -- --nocapture` prints
 //! the current values in the form of the tables below.

@@ -22,13 +22,13 @@ use clap::{CommandFactory, Parser, Subcommand};
 #[cfg(feature = "sim")]
 macro_rules! build_features {
     () => {
-        "features: camera (DVS240 over libcaer, loaded at run time), sim (demo, sim, bench)"
+        "features: camera (DVS240, DAVIS346, DVXplorer over libcaer, loaded at run time), sim (demo, sim, bench)"
     };
 }
 #[cfg(not(feature = "sim"))]
 macro_rules! build_features {
     () => {
-        "flight build; features: camera (DVS240 over libcaer, loaded at run time); without: sim"
+        "flight build; features: camera (DVS240, DAVIS346, DVXplorer over libcaer, loaded at run time); without: sim"
     };
 }
 const VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), " (", build_features!(), ")");
@@ -106,7 +106,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// The main job, no hardware: the daemon flies a simulated quadrotor at a pole
-    /// against a simulated iNav over MAVLink, in closed loop and real time.
+    /// against a simulated iNav (MAVLink and MSP), in closed loop and simulated time.
     #[cfg(feature = "sim")]
     Demo(simulate::DemoArgs),
     /// The closed-loop avoidance experiment: many flights, success and false-avoidance rates.
@@ -118,7 +118,8 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
-    /// The flight daemon: camera, pipeline, safety gate and MAVLink to the autopilot.
+    /// The flight daemon: camera, pipeline, safety gate, iNav's telemetry (MAVLink or
+    /// MSP) and the roll over MSP.
     Run(flight::RunArgs),
     /// Recorded events (and attitude) through the same pipeline: one line per window.
     Replay(flight::ReplayArgs),

@@ -19,19 +19,14 @@ pub struct FlowConfig {
     /// Only neighbours that fired within this time before the event are fitted. Longer
     /// windows keep slow edges (near the FOE, where the flow is slowest) but make their
     /// flow lag behind a changing course; 150 ms gave the lowest FOE error on the
-    /// simulator (mean 6.5 degrees against 8.3 at 300 ms and 8.5 at 50 ms, 24 flights).
+    /// simulator (docs/tuning.md).
     pub window_us: i64,
     /// A pixel firing again within this time of its previous same-polarity event is
     /// ignored: one edge makes bursts of events per pixel, and only the first is on
     /// the moving front; where edges follow each other closely, the next one's
     /// neighbourhood also holds the previous one's pixels, and the two make one plane
-    /// that is neither. 200 ms, chosen by measurement (docs/tuning.md): the median
-    /// speed error against the known motion of the generated dense pole falls from
-    /// 66 % at 20 ms (5.7 % at 100 ms, 4.2 % at 150 ms) to 3.8 %, on the looming pole
-    /// from 3.0 to 3.0 % and on ray-traced flights from 2.9-3.3 to 2.8-3.1 %; FAITH's
-    /// error on `faithd bench foe` falls from 3.80 / 4.11 / 4.24 to 3.68 / 3.98 / 4.18
-    /// degrees (seeds 1-3), and the flow runs 1.3 to 2.4 times as fast. (1 ms before
-    /// issue 20's first change, then 20 ms.)
+    /// that is neither. 200 ms, chosen by measurement against the known motion of the
+    /// generated and ray-traced scenes (docs/tuning.md, "Switched to 200 ms").
     pub refractory_us: i64,
     /// Points needed for a fit, the event itself included.
     pub min_points: usize,

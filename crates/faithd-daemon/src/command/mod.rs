@@ -26,8 +26,9 @@ use rxrange::RxRange;
 /// iNav's first AUX channel: its modes (MSP RC OVERRIDE among them) bind to AUX.
 pub const FIRST_AUX_CHANNEL: u8 = 5;
 
-/// Why `kind = "mavlink"` is refused, measured on iNav 9.1 SITL.
-pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel (the roll was in effect in 37-62% of samples) and 0/65535 cannot release it; use kind = \"msp\" (docs/inav.md)";
+/// Why `kind = "mavlink"` is refused, as measured on iNav 9.1 SITL (docs/inav.md has
+/// the figures).
+pub const MAVLINK_SINK_REFUSED: &str = "is refused: iNav ignores RC_CHANNELS_OVERRIDE unless MAVLink is its receiver, and then the pilot's and faithd's frames take turns on the roll channel and 0/65535 cannot release it; use kind = \"msp\" (docs/inav.md)";
 
 /// How rolls reach iNav: `[command.sink]`, a `kind` and that kind's own settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -916,9 +916,11 @@ impl ShutdownSignals {
         })
     }
 
-    /// The first of them to arrive, by name.
+    /// The first of them to arrive, by name (biased as every select here: two signals
+    /// pending at once are named in the same order on every run).
     async fn first(mut self) -> &'static str {
         tokio::select! {
+            biased;
             _ = self.term.recv() => "SIGTERM",
             _ = self.int.recv() => "SIGINT",
             _ = self.hup.recv() => "SIGHUP",
