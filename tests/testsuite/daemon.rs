@@ -1009,7 +1009,20 @@ fn a_calibrated_asymmetric_receiver_gets_the_roll_meant() {
         daemon.log()
     );
     assert!(daemon.stop().success());
-    assert_eq!(mock.first_roll(), None);
+    // What iNav used: the centre shifted, and never the roll meant.
+    let used: std::collections::BTreeSet<u16> = mock
+        .msp
+        .roll_log
+        .lock()
+        .unwrap()
+        .iter()
+        .map(|(_, v)| *v)
+        .collect();
+    assert!(used.contains(&1490), "iNav used {used:?}");
+    assert!(
+        !used.contains(&1200) && !used.contains(&1800),
+        "iNav used {used:?}"
+    );
 }
 
 /// iNav reads msp_override_channels on every frame: a configurator on another port
