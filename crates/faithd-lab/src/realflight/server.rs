@@ -263,14 +263,20 @@ mod tests {
         )
     }
 
-    #[test]
-    fn inavs_motors_fly_the_quad_and_the_answers_keep_to_the_wall_clock() {
+    /// The quad-X on the ground, served on `ip` (a loopback address per test).
+    fn grounded_quad_served_on(ip: &str) -> (Server, Arc<World>) {
         let world = World::new(QuadX::on_ground(
             QuadXConfig::default(),
             Vector3::zeros(),
             0.0,
         ));
-        let server = Server::start("127.0.0.3".parse().unwrap(), world.clone()).unwrap();
+        let server = Server::start(ip.parse().unwrap(), world.clone()).unwrap();
+        (server, world)
+    }
+
+    #[test]
+    fn inavs_motors_fly_the_quad_and_the_answers_keep_to_the_wall_clock() {
+        let (server, world) = grounded_quad_served_on("127.0.0.3");
         let restore = call(
             server.addr,
             "RestoreOriginalControllerDevice",
@@ -304,12 +310,7 @@ mod tests {
     /// long iNav was away, and the vehicle stood still for what the catch-up skipped.
     #[test]
     fn an_exchange_after_a_stall_is_late_and_the_stall_is_kept() {
-        let world = World::new(QuadX::on_ground(
-            QuadXConfig::default(),
-            Vector3::zeros(),
-            0.0,
-        ));
-        let server = Server::start("127.0.0.4".parse().unwrap(), world.clone()).unwrap();
+        let (server, world) = grounded_quad_served_on("127.0.0.4");
         for _ in 0..50 {
             exchange(server.addr, 0.6);
         }
